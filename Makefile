@@ -1,0 +1,33 @@
+# camsim: `make serve` and `make test` do all set-up on a fresh machine.
+PYTHON ?= python3
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+PORT   ?= 5006
+
+.PHONY: install serve test bench clean
+
+$(VENV)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e ".[app,test]"
+	touch $@
+
+install: $(VENV)/.installed
+
+# Chromium for the browser tests comes from Debian (Playwright must not download its own).
+chromium:
+	@command -v chromium >/dev/null 2>&1 || { \
+	  echo "installing Debian's chromium for the browser tests"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null; }
+
+serve: install
+	$(VENV)/bin/camsim serve --port $(PORT)
+
+test: install chromium
+	$(PY) -m pytest -q -rs
+
+bench: install
+	$(PY) benchmarks/pipeline.py
+
+clean:
+	rm -rf $(VENV) test-artifacts .pytest_cache

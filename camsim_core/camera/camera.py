@@ -1,0 +1,182 @@
+"""The camera: a parameter structure plus an architecture (chapter section 3).
+
+The architecture is the ordered tuple of stages ``stage(camera, image) ->
+image`` applied to the scene; the parameters differentiate one camera from
+another within an architecture. Reordering is a matter of passing another
+tuple, e.g. ``(optical_blur, sensor_responses, resample, mosaic, noise,
+digitize)`` with a per-wavelength ``blur_sigma`` for chromatic aberration.
+
+``dataclasses.replace(camera, mosaic=None, noise_sigma=0.0, bits=None)``
+gives the same camera non-mosaiced, noiseless and unquantized.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..datasets.sensors import Sensors
+from ..errors import ParameterError
+from ..image import check_tile
+from ..simulation import DEFAULT_ARCHITECTURE
+from ..spectra import Spectrum
+
+__all__ = ["Camera", "NOISE_MODELS"]
+
+NOISE_MODELS = ("gaussian", "photon")
+
+
+@dataclass(frozen=True, eq=False)
+class Camera:
+    """Camera parameters.
+
+    Attributes
+    ----------
+    sensors : Sensors
+        Spectral sensitivities ("Watts": digital units per unit radiance
+        band at ``cal_exposure`` and ``cal_f_stop``; "Quanta": quantum
+        efficiency, see :func:`~camsim_core.simulation.sensor.sensor_responses`).
+    mosaic : ndarray (n, m) or (n, m, tiers) of int, or None
+        0-based sensor index at each tile position; ``None`` for a full-colour camera.
+    height, width : int
+        Size of the sensor array, pixels.
+    angular_resolution : (x, y)
+        Pixels per degree.
+    focal_length : float
+        mm.
+    pixel_size : (height, width)
+        m, for quantal cameras.
+    cal_exposure, cal_f_stop : float
+        Conditions of the sensitivity calibration (s, f-number).
+    exposure, f_stop : float
+        Conditions of the simulated picture.
+    distance : float or None
+        m from the scene; ``None`` keeps the scene's own distance.
+    noise_model : "gaussian" or "photon"
+        Additive Gaussian noise in digital units (the chapter's model), or
+        photon shot noise plus Gaussian read noise for quantal sensors.
+    noise_mean, noise_sigma : float
+        Digital units. ``noise_sigma == 0`` switches the noise stage off.
+    read_noise : float
+        Electrons (photon model).
+    electrons_per_dn : float
+        Conversion gain of a quantal sensor, electrons per digital unit.
+    bits : int or None
+        1-32; ``None`` for no quantization.
+    nonlinearity : None, float or array
+        Static non-linearity before quantization: a power (v/full)**gamma, or
+        a lookup table of normalized output at evenly spaced normalized
+        inputs (like the Kodak DCS-420's).
+    blur_sigma : float or Spectrum
+        Gaussian optical blur, standard deviation in camera pixels; a
+        Spectrum gives it per wavelength (used by ``optical_blur`` on
+        spectral planes). 0 = no blur.
+    seed : int or None
+        Seed of the noise generator; the same seed gives the same noise.
+    architecture : tuple of stages
+    """
+
+    sensors: Sensors
+    name: str = ""
+    mosaic: np.ndarray | None = None
+    height: int = 1012
+    width: int = 1524
+    angular_resolution: tuple = (102.6, 102.6)
+    focal_length: float = 50.0
+    pixel_size: tuple = (9e-6, 9e-6)
+    cal_exposure: float = 1.0
+    cal_f_stop: float = 5.6
+    exposure: float = 1.0
+    f_stop: float = 5.6
+    distance: float | None = None
+    noise_model: str = "gaussian"
+    noise_mean: float = 0.0
+    noise_sigma: float = 0.0
+    read_noise: float = 0.0
+    electrons_per_dn: float = 1.0
+    bits: int | None = 8
+    nonlinearity: object = None
+    blur_sigma: object = 0.0
+    seed: int | None = None
+    architecture: tuple = DEFAULT_ARCHITECTURE
+    comments: str = ""
+
+    def __post_init__(self):
+        if not isinstance(self.sensors, Sensors):
+            raise ParameterError("sensors", f"must be a Sensors set, got {type(self.sensors).__name__}")
+        object.__setattr__(self, "mosaic", check_tile(self.mosaic, len(self.sensors), "mosaic"))
+        for field_name in ("exposure", "f_stop", "cal_exposure", "cal_f_stop", "focal_length", "electrons_per_dn"):
+            v = getattr(self, field_name)
+            if not (isinstance(v, (int, float, np.floating, np.integer)) and np.isfinite(v) and v > 0):
+                raise ParameterError(field_name, f"must be a positive number, got {v!r}")
+        if self.distance is not None and not (np.isfinite(self.distance) and self.distance > 0):
+            raise ParameterError("distance", f"must be a positive number of metres or None, got {self.distance!r}")
+        for field_name in ("height", "width"):
+            v = getattr(self, field_name)
+            if int(v) != v or v < 1:
+                raise ParameterError(field_name, f"must be a positive whole number of pixels, got {v!r}")
+        ar = tuple(float(v) for v in np.broadcast_to(np.asarray(self.angular_resolution, float), (2,)))
+        if not all(np.isfinite(v) and v > 0 for v in ar):
+            raise ParameterError("angular_resolution", f"must be positive pixels per degree (x, y), got {ar}")
+        object.__setattr__(self, "angular_resolution", ar)
+        if self.noise_model not in NOISE_MODELS:
+            raise ParameterError("noise_model", f"must be one of {NOISE_MODELS}, got {self.noise_model!r}")
+        for field_name in ("noise_sigma", "read_noise"):
+            v = getattr(self, field_name)
+            if not (np.isfinite(v) and v >= 0):
+                raise ParameterError(field_name, f"must be a non-negative number, got {v!r}")
+        if not np.isfinite(self.noise_mean):
+            raise ParameterError("noise_mean", f"must be finite, got {self.noise_mean!r}")
+        if self.noise_model == "photon" and self.sensors.unit != "Quanta":
+            raise ParameterError("noise_model", "photon noise needs sensitivities in quanta (sensors.unit == 'Quanta')")
+        if self.bits is not None:
+            if isinstance(self.bits, bool) or int(self.bits) != self.bits or not 1 <= self.bits <= 32:
+                raise ParameterError("bits", f"must be a whole number from 1 to 32, or None for no quantization; got {self.bits!r}")
+            object.__setattr__(self, "bits", int(self.bits))
+        if self.nonlinearity is not None and not np.isscalar(self.nonlinearity):
+            lut = np.asarray(self.nonlinearity, float).ravel()
+            if lut.size < 2 or not np.all(np.isfinite(lut)) or np.any(np.diff(lut) < 0):
+                raise ParameterError("nonlinearity", "a lookup table must hold at least 2 finite, non-decreasing values")
+            object.__setattr__(self, "nonlinearity", lut)
+        elif self.nonlinearity is not None and not (np.isfinite(self.nonlinearity) and self.nonlinearity > 0):
+            raise ParameterError("nonlinearity", f"a gamma must be a positive number, got {self.nonlinearity!r}")
+        if not isinstance(self.blur_sigma, Spectrum) and not (np.isfinite(self.blur_sigma) and self.blur_sigma >= 0):
+            raise ParameterError("blur_sigma", f"must be a non-negative number of pixels or a Spectrum, got {self.blur_sigma!r}")
+        if not self.architecture or not all(callable(s) for s in self.architecture):
+            raise ParameterError("architecture", "must be a non-empty sequence of stage(camera, image) functions")
+        object.__setattr__(self, "architecture", tuple(self.architecture))
+
+    def replace(self, **changes):
+        """A validated copy with ``changes`` (same as ``dataclasses.replace``)."""
+        return dataclasses.replace(self, **changes)
+
+    @property
+    def n_sensors(self):
+        return len(self.sensors)
+
+    @property
+    def full_scale(self):
+        return None if self.bits is None else float(2 ** self.bits - 1)
+
+    def describe(self):
+        return {
+            "name": self.name,
+            "kind": "camera",
+            "sensors": list(self.sensors.names),
+            "sensor_unit": self.sensors.unit,
+            "wavelengths_nm": f"{self.sensors.wavelengths[0]:g}-{self.sensors.wavelengths[-1]:g}",
+            "mosaic": None if self.mosaic is None else self.mosaic.tolist(),
+            "size_px": f"{self.height} x {self.width}",
+            "angular_resolution_px_per_deg": {"x": self.angular_resolution[0], "y": self.angular_resolution[1]},
+            "focal_length_mm": self.focal_length,
+            "calibration": {"exposure_s": self.cal_exposure, "f_stop": self.cal_f_stop},
+            "exposure_s": self.exposure,
+            "f_stop": self.f_stop,
+            "distance_m": self.distance,
+            "noise": {"model": self.noise_model, "mean": self.noise_mean, "sigma": self.noise_sigma},
+            "bits": self.bits,
+            "architecture": [getattr(s, "__name__", repr(s)) for s in self.architecture],
+            "comments": self.comments,
+        }

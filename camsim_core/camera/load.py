@@ -1,0 +1,179 @@
+"""Loading cameras: shipped names and the original simulator's ``.Scam`` files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..datasets import SIMTOOLBOX
+from ..datasets.sensors import (
+    WAVELENGTHS_380_780,
+    Sensors,
+    cie1931_xyz,
+    common_scale,
+    gaussian_sensors,
+    kodak_dcs200,
+    mixture,
+    smith_pokorny_cones,
+    stockman_sharpe_cones,
+)
+from ..errors import FileFormatError
+from ..io.simtoolbox import group_numbers, read_tagged
+from ..simulation import DEFAULT_ARCHITECTURE, FOUR_SENSOR_GRID, bayer
+from ..spectra import sampling_wavelengths
+from .camera import Camera
+
+__all__ = ["load_camera", "read_scam", "CAMERA_NAMES", "camera_preset"]
+
+CAMERA_NAMES = (
+    "kodak-dcs200",
+    "kodak-dcs200-ir",
+    "human-cones",
+    "stockman-sharpe",
+    "cie1931",
+    "gaussian-3",
+    "gaussian-4",
+)
+
+_ALG = {"simweightrawimages": "sensor_responses", "simresample": "resample", "simmosaic": "mosaic",
+        "simnoise": "noise", "simaddnoise": "noise", "simquantize": "digitize", "simblur": "optical_blur"}
+
+
+def read_scam(path):
+    """Read a SimToolbox ``.Scam`` camera file.
+
+    Mosaic indices are 1-based in the file (``##SimMosaic``, row by row) and
+    0-based here. Noise ``##SimVariance`` becomes ``noise_sigma =
+    sqrt(variance)``. The architecture is the chapter's five stages (a
+    superset of every ``#Sim#Alg`` list shipped: a stage whose parameters
+    switch it off does nothing); the file's own list is kept in ``comments``.
+    """
+    path = Path(path)
+    t = read_tagged(path)
+    n = int(t.number("NumberSensors", required=True))
+    ws = t.get_tag("WavelengthSampling")
+    if isinstance(ws, dict):
+        s = [group_numbers(t, "WavelengthSampling", f)[0] for f in ("Start", "Step", "NumberSamples")]
+    elif ws is not None:
+        s = [float(v) for v in " ".join(ws).split()[:3]]
+    else:
+        raise FileFormatError(path, "required tag #SimWavelengthSampling is missing")
+    wls = sampling_wavelengths(*s)
+    sens = np.asarray(t.require("SpectralSensitivity", "one row of sensitivities per sensor"), float)
+    if sens.shape != (n, wls.size):
+        raise FileFormatError(path, f"#Sim#SpectralSensitivity is {sens.shape[0]} x {sens.shape[1]}, expected {n} x {wls.size}")
+    unit = t.text("Unit", "Watts").strip().capitalize()
+    if unit not in ("Watts", "Quanta"):
+        raise FileFormatError(path, f"#SimUnit must be Watts or Quanta for a camera, found {unit!r}")
+    names = ("R", "G", "B") if n == 3 else tuple(f"S{i + 1}" for i in range(n))
+    sensors = Sensors(wls, sens, names, unit, t.text("Name"))
+    tile = None
+    if t.has("SpatialLayout"):
+        dims = group_numbers(t, "SpatialLayout", "Dims").astype(int)
+        mos = group_numbers(t, "SpatialLayout", "Mosaic")
+        if dims.size != 3 or mos.size != int(np.prod(dims)):
+            raise FileFormatError(path, f"##SimMosaic has {mos.size} entries for ##SimDims {dims.tolist()}")
+        tile = mos.astype(int).reshape(tuple(dims)) - 1
+        if tile.shape[2] == 1:
+            tile = tile[:, :, 0]
+        if tile.shape[:2] == (1, 1):
+            tile = None  # one pixel with every sensor: a full-colour camera
+    ax = group_numbers(t, "AngularResolution", "X")[0]
+    ay = group_numbers(t, "AngularResolution", "Y")[0]
+    noise_mean = noise_sigma = 0.0
+    if t.has("Noise"):
+        noise_mean = float(group_numbers(t, "Noise", "Mean", required=False)[0]) if group_numbers(t, "Noise", "Mean", required=False) is not None else 0.0
+        var = group_numbers(t, "Noise", "Variance", required=False)
+        noise_sigma = float(np.sqrt(var[0])) if var is not None else 0.0
+    bits = None
+    if t.has("Quantize"):
+        b = group_numbers(t, "Quantize", "Bits", required=False)
+        bits = int(b[0]) if b is not None else None
+    ph = t.number("PixelHeight", 9e-6)
+    pw = t.number("PixelWidth", 9e-6)
+    algs = [a for a in t.get_tag("Alg", []) if a]
+    comments = t.text("Comments")
+    if algs:
+        comments = (comments + "\n" if comments else "") + "file's stages: " + ", ".join(_ALG.get(a.lower(), a) for a in algs)
+    try:
+        return Camera(
+            sensors=sensors,
+            name=path.stem,
+            mosaic=tile,
+            height=int(t.number("Height", required=True)),
+            width=int(t.number("Width", required=True)),
+            angular_resolution=(ax, ay),
+            focal_length=t.number("Lens", 50.0),
+            pixel_size=(ph, pw),
+            cal_exposure=t.number("CalExposureTime", 1.0),
+            cal_f_stop=t.number("CalFStop", 5.6),
+            exposure=t.number("CalExposureTime", 1.0),
+            f_stop=t.number("CalFStop", 5.6),
+            noise_mean=noise_mean,
+            noise_sigma=noise_sigma,
+            bits=bits,
+            seed=0,
+            architecture=DEFAULT_ARCHITECTURE,
+            comments=comments,
+        )
+    except ValueError as exc:
+        raise FileFormatError(path, str(exc)) from None
+
+
+def _dcs200_geometry(ir=True):
+    return read_scam(SIMTOOLBOX / "cameras" / ("kodakdcs200_50mmIR.Scam" if ir else "kodakdcs200_50mm.Scam"))
+
+
+def camera_preset(name, **changes):
+    """A shipped camera by name (see ``CAMERA_NAMES``), with optional field ``changes``.
+
+    Every preset has the Kodak DCS-200's geometry (50 mm lens, 102.6 px/deg,
+    1012 x 1524 pixels, f/5.6 and 1 s calibration), 8 bits and seed 0.
+    ``human-cones`` are Smith-Pokorny cones and ``cie1931`` the CIE 1931
+    functions, not mosaiced and noiseless, brought to the DCS-200's scale
+    (see :func:`~camsim_core.datasets.sensors.common_scale`; XYZ with one
+    factor for all three so that its ratios stay colorimetric).
+    ``gaussian-3`` / ``gaussian-4`` are the section 5 Gaussian sensors (27 nm
+    standard deviation) on a Bayer tile / the 2 x 2 grid.
+    """
+    key = name.lower()
+    base = _dcs200_geometry(ir=key != "kodak-dcs200")
+    if key in ("kodak-dcs200", "kodak-dcs200-ir"):
+        cam = base.replace(name=key)
+    elif key in ("human-cones", "stockman-sharpe"):
+        cones = smith_pokorny_cones() if key == "human-cones" else stockman_sharpe_cones()
+        s = Sensors(WAVELENGTHS_380_780, common_scale(cones), cones.names, "Watts", cones.name)
+        cam = base.replace(name=key, sensors=s, mosaic=None, noise_sigma=0.0, noise_mean=0.0)
+    elif key == "cie1931":
+        xyz = cie1931_xyz()
+        v = xyz.on(WAVELENGTHS_380_780)
+        ref = kodak_dcs200().on(WAVELENGTHS_380_780).sum(axis=1).mean()
+        s = Sensors(WAVELENGTHS_380_780, v * (ref / v[1].sum()), xyz.names, "Watts", xyz.name)
+        cam = base.replace(name=key, sensors=s, mosaic=None, noise_sigma=0.0, noise_mean=0.0)
+    elif key == "gaussian-3":
+        s = gaussian_sensors([640, 520, 460], 27.0, names=("R", "G", "B"))
+        cam = base.replace(name=key, sensors=s, mosaic=bayer("GRBG"), noise_sigma=0.0, noise_mean=0.0)
+    elif key == "gaussian-4":
+        s = gaussian_sensors([460, 520, 580, 640], 27.0)
+        cam = base.replace(name=key, sensors=s, mosaic=FOUR_SENSOR_GRID, noise_sigma=0.0, noise_mean=0.0)
+    elif key.startswith("mixture-"):
+        cam = base.replace(name=key, sensors=mixture(float(key.split("-", 1)[1])))
+    else:
+        raise FileFormatError(name, f"not a shipped camera name ({', '.join(CAMERA_NAMES)}, mixture-ALPHA) nor a file")
+    return cam.replace(**changes) if changes else cam
+
+
+def load_camera(name_or_path):
+    """A :class:`Camera` from a shipped name (``CAMERA_NAMES``, or ``mixture-ALPHA``) or a ``.Scam`` path."""
+    if isinstance(name_or_path, Camera):
+        return name_or_path
+    key = str(name_or_path)
+    if key.lower() in CAMERA_NAMES or key.lower().startswith("mixture-"):
+        return camera_preset(key)
+    p = Path(key)
+    if p.exists():
+        if p.suffix.lower() != ".scam":
+            raise FileFormatError(p, "unknown camera format: expected a SimToolbox .Scam file")
+        return read_scam(p)
+    raise FileFormatError(p, f"no such file, and not a shipped camera name ({', '.join(CAMERA_NAMES)})")

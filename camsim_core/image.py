@@ -1,0 +1,196 @@
+"""The camera image: data plus the metadata that the next stage needs.
+
+One structure travels the whole pipeline (chapter section 3, and 4.1: "there
+is no formal distinction between routines that simulate camera function and
+routines that apply processing operations to camera data"). Its ``data`` is
+
+* ``(H, W, N)`` spectral planes while ``sensitivities`` is ``None`` (the image
+  right after it leaves the scene, before the sensor stage: a blur per
+  wavelength can act here);
+* ``(H, W, K)`` one plane per sensor class after the sensor stage, or after
+  demosaicing;
+* ``(H, W)`` one mosaic plane plus its ``tile`` after the mosaic stage (as a
+  raw file holds it), or ``(H, W, T)`` for a tile with ``T`` tiers (a
+  field-sequential design);
+* ``(H, W, 3)`` linear monitor settings or 8-bit monitor values after
+  rendering (``space`` says which).
+
+Images are immutable: every stage returns a new one (``image.replace(...)``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import ParameterError
+from .spectra import Spectrum
+
+__all__ = ["CameraImage", "image_from_scene", "check_tile"]
+
+#: What ``CameraImage.space`` may be.
+SPACES = ("spectral", "sensor", "monitor-linear", "monitor")
+
+
+def check_tile(tile, n_sensors, name="mosaic"):
+    """Validate a mosaic tile: an integer array (n, m) or (n, m, tiers) of 0-based sensor indices."""
+    if tile is None:
+        return None
+    t = np.asarray(tile)
+    if t.ndim not in (2, 3) or t.size == 0:
+        raise ParameterError(name, f"a tile must be a 2-D (rows, cols) or 3-D (rows, cols, tiers) array, got shape {t.shape}")
+    if not np.issubdtype(t.dtype, np.integer):
+        if not np.all(np.equal(np.mod(t, 1), 0)):
+            raise ParameterError(name, "tile entries must be integer sensor indices")
+        t = t.astype(int)
+    bad = (t < 0) | (t >= n_sensors)
+    if bad.any():
+        raise ParameterError(
+            name,
+            f"tile names sensor index {int(t[bad].flat[0])}, but the camera has {n_sensors} "
+            f"sensors (valid indices 0..{n_sensors - 1})",
+        )
+    t = np.array(t, dtype=np.intp)
+    t.flags.writeable = False
+    return t
+
+
+@dataclass(frozen=True, eq=False)
+class CameraImage:
+    """Image data and its description, as it passes through simulation and processing.
+
+    Attributes
+    ----------
+    data : ndarray
+        See the module docstring for its shapes.
+    wavelengths : ndarray (N,)
+        nm. The sampling of the spectral planes, or of ``sensitivities``.
+    sensitivities : ndarray (K, N) or None
+        Sensor spectral sensitivities on ``wavelengths``; ``None`` while the
+        data are still spectral planes.
+    sensor_names : tuple of str
+    tile : ndarray (n, m) or (n, m, tiers) of int, or None
+        The mosaic tile (0-based sensor indices, the tile's top-left at pixel
+        (0, 0)). Kept after demosaicing so processing knows the sampling.
+    exposure : float
+        s.
+    f_stop : float
+    distance : float
+        m, from camera to scene.
+    angular_resolution : tuple (x, y)
+        Pixels per degree.
+    bits : int or None
+        Quantization depth; ``None`` for an unquantized image.
+    gain : float
+        Digital units per unit of ``sensitivities @ radiance``: the exposure
+        and f-stop scaling of the sensor stage. Processing divides it out to
+        compare images taken at different settings.
+    noise_sigma : float
+        Standard deviation (digital units) of the noise added; processing
+        such as Bayesian demosaicing uses it in its likelihood.
+    mosaiced, quantized : bool
+    illuminant : Spectrum or None
+        The scene illuminant, carried along for balancing.
+    space : str
+        One of ``"spectral"``, ``"sensor"``, ``"monitor-linear"``, ``"monitor"``.
+    unit : str
+    history : tuple of str
+        Names of the stages applied so far, in order.
+    name : str
+    """
+
+    data: np.ndarray
+    wavelengths: np.ndarray
+    sensitivities: np.ndarray | None = None
+    sensor_names: tuple = ()
+    tile: np.ndarray | None = None
+    exposure: float = 1.0
+    f_stop: float = 1.0
+    distance: float = 1.0
+    angular_resolution: tuple = (1.0, 1.0)
+    bits: int | None = None
+    gain: float = 1.0
+    noise_sigma: float = 0.0
+    mosaiced: bool = False
+    quantized: bool = False
+    illuminant: Spectrum | None = None
+    space: str = "sensor"
+    unit: str = ""
+    history: tuple = ()
+    name: str = ""
+    extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        if self.space not in SPACES:
+            raise ParameterError("space", f"must be one of {SPACES}, got {self.space!r}")
+        ax, ay = (float(v) for v in self.angular_resolution)
+        object.__setattr__(self, "angular_resolution", (ax, ay))
+
+    # -- convenience -------------------------------------------------------
+    @property
+    def n_sensors(self):
+        """Number of sensor classes (0 while the image is spectral)."""
+        return 0 if self.sensitivities is None else int(np.shape(self.sensitivities)[0])
+
+    @property
+    def shape(self):
+        """(H, W) of the image."""
+        return tuple(self.data.shape[:2])
+
+    @property
+    def full_scale(self):
+        """Largest digital value: 2**bits - 1, or ``None`` when unquantized."""
+        return None if self.bits is None else float(2 ** self.bits - 1)
+
+    def replace(self, **changes):
+        """A new image with ``changes`` applied and nothing else touched."""
+        return dataclasses.replace(self, **changes)
+
+    def then(self, stage_name, **changes):
+        """A new image with ``changes`` and ``stage_name`` appended to the history."""
+        return dataclasses.replace(self, history=self.history + (stage_name,), **changes)
+
+    def metadata(self):
+        """JSON-serializable description (everything but the data)."""
+        return {
+            "name": self.name,
+            "shape": list(self.data.shape),
+            "space": self.space,
+            "unit": self.unit,
+            "sensor_names": list(self.sensor_names),
+            "wavelengths": [float(w) for w in self.wavelengths],
+            "sensitivities": None if self.sensitivities is None else np.asarray(self.sensitivities).tolist(),
+            "tile": None if self.tile is None else np.asarray(self.tile).tolist(),
+            "exposure_s": self.exposure,
+            "f_stop": self.f_stop,
+            "distance_m": self.distance,
+            "angular_resolution_px_per_deg": list(self.angular_resolution),
+            "bits": self.bits,
+            "gain": self.gain,
+            "noise_sigma": self.noise_sigma,
+            "mosaiced": self.mosaiced,
+            "quantized": self.quantized,
+            "illuminant": None
+            if self.illuminant is None
+            else {"wavelengths": self.illuminant.wavelengths.tolist(), "values": self.illuminant.values.tolist()},
+            "history": list(self.history),
+        }
+
+
+def image_from_scene(scene):
+    """The scene as the pipeline's first image: spectral planes with the scene's geometry."""
+    return CameraImage(
+        data=scene.data,
+        wavelengths=scene.wavelengths,
+        sensitivities=None,
+        sensor_names=(),
+        distance=scene.distance,
+        angular_resolution=scene.angular_resolution,
+        illuminant=scene.illuminant,
+        space="spectral",
+        unit=scene.unit,
+        history=("scene",),
+        name=scene.name,
+    )

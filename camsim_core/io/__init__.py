@@ -1,0 +1,1 @@
+"""Readers and writers: the original simulator's files, raw output, atomic writes."""

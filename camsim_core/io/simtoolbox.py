@@ -1,0 +1,220 @@
+"""Readers for the original simulator's text files: ``.Simg``, ``.Scam``, ``.Smon``, ``.dat``.
+
+Hand-written: no library reads this format. The files (see
+``assets/simtoolbox/README.md``) hold tagged sections:
+
+* ``#SimName`` opens a section whose value is the following lines, up to
+  ``#SimEnd`` (or ``#SimEndComments``) or the next tag; ``#SimName value``
+  may also carry its value on the same line (the older ``.dat`` files);
+* ``##SimName`` is a field of the section above it (``##SimEnd`` closes the
+  group);
+* ``#Sim#Name`` opens a matrix: ``rows cols`` then ``rows * cols`` numbers
+  in row order; ``#Sim#Alg NAME`` lists one pipeline stage;
+* ``#!#Sim...`` are headings and any other ``#`` line is a comment.
+
+Line endings may be CR (classic Mac), LF or CRLF.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import FileFormatError
+
+__all__ = ["parse_tags", "read_tagged", "TaggedFile"]
+
+_SPLIT = re.compile(r"\r\n|\r|\n")
+
+
+class TaggedFile(dict):
+    """Parsed sections of a tagged file; ``require`` gives clear errors for missing tags."""
+
+    def __init__(self, path, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.path = Path(path)
+
+    def _find(self, name):
+        for key in self:
+            if key.lower() == name.lower():
+                return key
+        return None
+
+    def has(self, name):
+        return self._find(name) is not None
+
+    def get_tag(self, name, default=None):
+        key = self._find(name)
+        return default if key is None else self[key]
+
+    def require(self, name, what="value"):
+        key = self._find(name)
+        if key is None:
+            raise FileFormatError(self.path, f"required tag #Sim{name} is missing ({what})")
+        return self[key]
+
+    def number(self, name, default=None, required=False):
+        """One number from a section or a field."""
+        value = self.require(name) if required else self.get_tag(name)
+        if value is None:
+            return default
+        return _first_number(self.path, name, value)
+
+    def text(self, name, default=""):
+        value = self.get_tag(name)
+        if value is None:
+            return default
+        if isinstance(value, list):
+            return "\n".join(value).strip()
+        return str(value)
+
+
+def _numbers(path, name, lines):
+    tokens = " ".join(lines if isinstance(lines, list) else [str(lines)]).split()
+    try:
+        return np.array([float(t) for t in tokens], dtype=float)
+    except ValueError as exc:
+        raise FileFormatError(path, f"tag #Sim{name} should hold numbers: {exc}") from None
+
+
+def _first_number(path, name, value):
+    if isinstance(value, dict):
+        raise FileFormatError(path, f"tag #Sim{name} should be a number, found a group")
+    if isinstance(value, np.ndarray):
+        arr = value.ravel()
+    else:
+        arr = _numbers(path, name, value)
+    if arr.size == 0:
+        raise FileFormatError(path, f"tag #Sim{name} is empty, expected a number")
+    return float(arr[0])
+
+
+def group_numbers(tagged, group, field, required=True):
+    """Numbers of field ``##Sim<field>`` inside group ``<group>``."""
+    g = tagged.require(group) if required else tagged.get_tag(group)
+    if g is None:
+        return None
+    if not isinstance(g, dict):
+        raise FileFormatError(tagged.path, f"#Sim{group} should be a group of ##Sim fields")
+    for key, value in g.items():
+        if key.lower() == field.lower():
+            return _numbers(tagged.path, f"{group}/{field}", value)
+    if required:
+        raise FileFormatError(tagged.path, f"required field ##Sim{field} of #Sim{group} is missing")
+    return None
+
+
+def parse_tags(text, path="<text>"):
+    """Parse the tagged text format into a :class:`TaggedFile`.
+
+    Sections map to a list of text lines, groups to a dict of field -> lines,
+    matrices to a 2-D float array, and ``Alg`` to the list of stage names.
+    """
+    out = TaggedFile(path)
+    lines = _SPLIT.split(text)
+    section = None  # name of the open #Sim section (its value: list of lines)
+    group = None  # name of the open group (dict)
+    field = None  # name of the open ##Sim field in the group
+    i = 0
+    n = len(lines)
+    while i < n:
+        raw = lines[i]
+        s = raw.strip()
+        i += 1
+        if s.startswith("#Sim#"):
+            body = s[5:].split(None, 1)
+            name = body[0] if body else ""
+            rest = body[1].strip() if len(body) > 1 else ""
+            section = group = field = None
+            if name == "Alg":
+                out.setdefault("Alg", []).append(rest)
+                continue
+            if name.startswith("Alg"):  # '#Sim#AlgSimWeightRawImages' in the .dat files
+                out.setdefault("Alg", []).append(name[3:])
+                continue
+            header = rest
+            while not header and i < n:
+                header = lines[i].strip()
+                i += 1
+            dims = header.split()
+            try:
+                rows, cols = int(float(dims[0])), int(float(dims[1]))
+            except (IndexError, ValueError):
+                raise FileFormatError(path, f"matrix #Sim#{name} should start with 'rows cols', found {header!r}") from None
+            need = rows * cols
+            values = [float(v) for v in dims[2:]] if len(dims) > 2 else []
+            while len(values) < need and i < n:
+                t = lines[i].strip()
+                if t.startswith("#"):
+                    break
+                i += 1
+                try:
+                    values.extend(float(v) for v in t.split())
+                except ValueError:
+                    raise FileFormatError(path, f"matrix #Sim#{name}: non-numeric line {t!r}") from None
+            if len(values) < need:
+                raise FileFormatError(path, f"matrix #Sim#{name} is truncated: {len(values)} of {rows} x {cols} values")
+            out[name] = np.array(values[:need], dtype=float).reshape(rows, cols)
+            continue
+        if s.startswith("##Sim"):
+            body = s[5:].split(None, 1)
+            name = body[0] if body else ""
+            rest = body[1].strip() if len(body) > 1 else ""
+            if name == "End":
+                group = field = None
+                section = None
+                continue
+            if group is None:
+                if section is not None and not out.get(section):
+                    # '#SimangularResolution' then '##Simx 55.93': the section becomes a group
+                    group = section
+                    out[group] = {}
+                else:
+                    group = name
+                    out[group] = {}
+                    section = None
+                    field = None
+                    if not rest:
+                        continue
+                    # a lone '##SimType value' line with no open group: store flat
+                    out[name] = [rest]
+                    group = None
+                    continue
+            section = None
+            field = name
+            out[group][field] = [rest] if rest else []
+            continue
+        if s.startswith("#!#"):
+            continue
+        if s.startswith("#Sim"):
+            body = s[4:].split(None, 1)
+            name = body[0] if body else ""
+            rest = body[1].strip() if len(body) > 1 else ""
+            group = field = None
+            if name in ("End", "EndComments"):
+                section = None
+                continue
+            section = name
+            out[section] = [rest] if rest else []
+            continue
+        if s.startswith("#") and section != "Comments":
+            continue
+        if not s:
+            continue
+        if field is not None and group is not None:
+            out[group][field].append(s)
+        elif section is not None:
+            out[section].append(s)
+    return out
+
+
+def read_tagged(path):
+    """Read and parse a tagged file; a missing or unreadable file gets a clear error."""
+    p = Path(path)
+    try:
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise FileFormatError(p, f"cannot read: {exc.strerror or exc}") from None
+    return parse_tags(raw.decode("latin-1"), path=p)

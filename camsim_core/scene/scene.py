@@ -1,0 +1,113 @@
+"""The hyperspectral scene (chapter section 3, the paragraphs before 3.1)."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..spectra import Spectrum
+
+__all__ = ["Scene", "check_radiance"]
+
+
+def check_radiance(data, where, negative="error"):
+    """Validate a radiance cube: finite everywhere; negatives an error, or clipped with a warning.
+
+    ``negative="clip"`` sets negative values to 0 and warns with their count
+    (calibrated captures can dip below zero after the scatter correction).
+    """
+    a = np.asarray(data, dtype=float)
+    if a.ndim != 3:
+        raise ParameterError(where, f"radiance must be an (H, W, N) array, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        bad = int(np.count_nonzero(~np.isfinite(a)))
+        raise ParameterError(where, f"radiance has {bad} NaN or infinite values; expected finite, non-negative values")
+    neg = a < 0
+    if neg.any():
+        count = int(np.count_nonzero(neg))
+        if negative == "clip":
+            warnings.warn(f"{where}: {count} negative radiance values clipped to 0", stacklevel=3)
+            a = np.where(neg, 0.0, a)
+        else:
+            raise ParameterError(
+                where, f"radiance has {count} negative values (min {a.min():g}); expected non-negative (load with negative='clip' to clip them)"
+            )
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """A calibrated hyperspectral image.
+
+    Attributes
+    ----------
+    data : ndarray (H, W, N)
+        Radiance, W/sr/m^2 per wavelength band of the sampling (see
+        :mod:`camsim_core.spectra`). Read-only.
+    wavelengths : ndarray (N,)
+        nm, strictly increasing.
+    distance : float
+        m, from the hyperspectral camera to the scene.
+    angular_resolution : tuple (x, y)
+        Pixels per degree of the camera that took the scene.
+    unit : str
+    illuminant : Spectrum or None
+        The measured scene illuminant, with its own sampling.
+    name, comments : str
+    """
+
+    data: np.ndarray
+    wavelengths: np.ndarray
+    distance: float = 1.0
+    angular_resolution: tuple = (57.3, 57.3)
+    unit: str = "W/sr/m^2 per band"
+    illuminant: Spectrum | None = None
+    name: str = ""
+    comments: str = ""
+
+    def __post_init__(self):
+        where = f"scene {self.name!r}" if self.name else "scene"
+        data = check_radiance(self.data, where)
+        w = np.asarray(self.wavelengths, float).ravel()
+        if w.size != data.shape[2]:
+            raise ParameterError(f"{where} wavelengths", f"{w.size} wavelengths for {data.shape[2]} planes")
+        if w.size > 1 and np.any(np.diff(w) <= 0):
+            raise ParameterError(f"{where} wavelengths", "must be strictly increasing")
+        if not np.isfinite(self.distance) or self.distance <= 0:
+            raise ParameterError(f"{where} distance", f"must be a positive number of metres, got {self.distance}")
+        ar = tuple(float(v) for v in np.broadcast_to(np.asarray(self.angular_resolution, float), (2,)))
+        if not all(np.isfinite(v) and v > 0 for v in ar):
+            raise ParameterError(f"{where} angular_resolution", f"must be positive pixels per degree (x, y), got {ar}")
+        data = np.ascontiguousarray(data, dtype=float)
+        if data is self.data and data.flags.writeable:
+            data = data.copy()  # never freeze or share the caller's own array
+        data.flags.writeable = False
+        w.flags.writeable = False
+        object.__setattr__(self, "data", data)
+        object.__setattr__(self, "wavelengths", w)
+        object.__setattr__(self, "angular_resolution", ar)
+        object.__setattr__(self, "distance", float(self.distance))
+
+    @property
+    def shape(self):
+        return tuple(self.data.shape)
+
+    def describe(self):
+        """A dict of the scene's metadata (for ``camsim info`` and the explorer)."""
+        h, w, n = self.data.shape
+        return {
+            "name": self.name,
+            "kind": "scene",
+            "size_px": f"{h} x {w}",
+            "planes": n,
+            "wavelengths_nm": f"{self.wavelengths[0]:g}-{self.wavelengths[-1]:g} ({n} samples)",
+            "distance_m": self.distance,
+            "angular_resolution_px_per_deg": {"x": self.angular_resolution[0], "y": self.angular_resolution[1]},
+            "unit": self.unit,
+            "radiance_range": [float(self.data.min()), float(self.data.max())],
+            "illuminant": None if self.illuminant is None else self.illuminant.name or "known",
+            "comments": self.comments,
+        }

@@ -1,0 +1,77 @@
+"""Stage 1: sensor class responses, a weighted sum of the hyperspectral planes (chapter 3.1)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..spectra import check_overlap
+from ._stage import stage
+
+__all__ = ["sensor_responses", "exposure_gain", "sensor_weights", "PLANCK", "LIGHT_SPEED"]
+
+PLANCK = 6.62607015e-34  # J s
+LIGHT_SPEED = 299792458.0  # m / s
+
+
+def exposure_gain(camera):
+    """(exposure / calibration exposure) x (calibration f-stop / f-stop)^2."""
+    return (camera.exposure / camera.cal_exposure) * (camera.cal_f_stop / camera.f_stop) ** 2
+
+
+def quantal_gain(camera):
+    """Digital units per (photon absorbed per unit quantum efficiency), before the lambda/hc factor.
+
+    Radiance L (W/sr/m^2 per band) gives the sensor an irradiance
+    E = pi L / (4 N^2) through a lens of f-number N (distant object, no
+    vignetting or transmission loss): the focal length cancels, because the
+    scene patch one pixel sees grows as f^2 while the aperture's solid angle
+    shrinks as 1/f^2. Photons absorbed in the exposure t by a pixel of area A
+    with quantum efficiency q: q E A t lambda / (h c). Divided by the
+    conversion gain (electrons per digital unit).
+    """
+    area = float(camera.pixel_size[0]) * float(camera.pixel_size[1])
+    return np.pi / (4.0 * camera.f_stop**2) * area * camera.exposure / camera.electrons_per_dn
+
+
+def sensor_weights(camera, wavelengths):
+    """(N, K) weights that take the N planes to K sensor responses, gain included; and the gain."""
+    w = np.asarray(wavelengths, float)
+    check_overlap(camera.sensors.wavelengths, w, f"sensitivities of {camera.name or 'the camera'}")
+    t = camera.sensors.on(w)
+    if camera.sensors.unit == "Quanta":
+        gain = quantal_gain(camera)
+        t = t * (w * 1e-9 / (PLANCK * LIGHT_SPEED))[None, :]
+    else:
+        gain = exposure_gain(camera)
+    return np.ascontiguousarray((t * gain).T), gain
+
+
+@stage("sensors", "exposure", "f_stop", "cal_exposure", "cal_f_stop", "pixel_size", "electrons_per_dn")
+def sensor_responses(camera, image):
+    """Weighted sums of the spectral planes, one per sensor class, scaled for exposure and f-stop.
+
+    For "Watts" sensitivities the result is in digital units: the
+    sensitivities were calibrated at ``cal_exposure`` and ``cal_f_stop``, and a
+    linear sensor's response scales with exposure time and with the aperture
+    area (1 / f-stop^2). For "Quanta" sensitivities the result is photons
+    absorbed divided by ``electrons_per_dn`` (see :func:`quantal_gain`).
+    Sensitivities are interpolated onto the scene's wavelengths and are zero
+    outside their measured range.
+    """
+    if image.space != "spectral":
+        raise ParameterError("sensor_responses", f"needs spectral planes, but the image is already in {image.space!r} space")
+    weights, gain = sensor_weights(camera, image.wavelengths)
+    h, w, n = image.data.shape
+    out = (image.data.reshape(h * w, n) @ weights).reshape(h, w, -1)
+    return image.then(
+        "sensor_responses",
+        data=out,
+        sensitivities=camera.sensors.on(image.wavelengths),
+        sensor_names=camera.sensors.names,
+        exposure=camera.exposure,
+        f_stop=camera.f_stop,
+        gain=gain,
+        space="sensor",
+        unit="digital units",
+    )
