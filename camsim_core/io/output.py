@@ -7,6 +7,7 @@ never leaves a partial output file.
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import tempfile
@@ -31,6 +32,9 @@ def atomic_write(path, writer, *, binary=True):
     try:
         with os.fdopen(fd, "wb" if binary else "w") as f:
             writer(f)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; give the file ordinary permissions
         os.replace(tmp, path)
     except BaseException:
         try:
@@ -89,7 +93,9 @@ def write_image(image, path):
             import tifffile
 
             def write(f):
-                tifffile.imwrite(f, data, photometric="minisblack" if data.ndim == 2 else None)
+                buf = io.BytesIO()
+                tifffile.imwrite(buf, data, photometric="minisblack" if data.ndim == 2 else None)
+                f.write(buf.getvalue())
 
     meta = image.metadata()
     meta["file"] = path.name
