@@ -78,8 +78,16 @@ class Sensors:
         return self.values.shape[0]
 
     def on(self, wavelengths):
-        """Sensitivities interpolated onto ``wavelengths``, zero outside the measured range."""
-        return resample(self.wavelengths, self.values, wavelengths)
+        """Sensitivities interpolated onto ``wavelengths``, zero outside the measured range (cached, read-only)."""
+        key = np.asarray(wavelengths, float).tobytes()
+        cache = self.__dict__.setdefault("_on_cache", {})
+        if key not in cache:
+            if len(cache) > 8:
+                cache.clear()
+            v = resample(self.wavelengths, self.values, wavelengths)
+            v.flags.writeable = False
+            cache[key] = v
+        return cache[key]
 
     def scaled(self, factors, name=None):
         f = np.broadcast_to(np.asarray(factors, float), (len(self),))

@@ -16,6 +16,8 @@ this arctan mapping nor with exact area weights.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from ._stage import stage
@@ -36,8 +38,9 @@ def resampled_size(N, Phi, phi, D, d):
     return 2.0 * phi * np.degrees(np.arctan((D / d) * np.tan(np.radians(N / (2.0 * Phi)))))
 
 
+@lru_cache(maxsize=64)
 def axis_matrix(N, Phi, phi, D, d, limit=None):
-    """(n, N) matrix that resamples one axis of N pixels; n <= ``limit``."""
+    """(n, N) matrix that resamples one axis of N pixels; n <= ``limit``. Cached, read-only."""
     n_full = int(round(resampled_size(N, Phi, phi, D, d)))
     n_full = max(n_full, 1)
     if n_full == N and abs(Phi / phi - 1) < 1e-12 and abs(D / d - 1) < 1e-12:
@@ -63,6 +66,8 @@ def axis_matrix(N, Phi, phi, D, d, limit=None):
     if limit is not None and m.shape[0] > limit:
         start = (m.shape[0] - limit) // 2
         m = m[start : start + limit]
+    m = np.ascontiguousarray(m)
+    m.flags.writeable = False
     return m
 
 
@@ -74,18 +79,23 @@ def resample(camera, image):
     phi_x, phi_y = camera.angular_resolution
     D = image.distance
     d = camera.distance if camera.distance is not None else D
-    my = axis_matrix(H, Phi_y, phi_y, D, d, camera.height)
-    mx = axis_matrix(W, Phi_x, phi_x, D, d, camera.width)
+    my = axis_matrix(H, float(Phi_y), float(phi_y), float(D), float(d), int(camera.height))
+    mx = axis_matrix(W, float(Phi_x), float(phi_x), float(D), float(d), int(camera.width))
     data = image.data
     squeeze = data.ndim == 2
     if squeeze:
         data = data[:, :, None]
-    identity_y = my.shape == (H, H) and np.array_equal(my, np.eye(H))
-    identity_x = mx.shape == (W, W) and np.array_equal(mx, np.eye(W))
-    if not identity_y:
-        data = np.tensordot(my, data, axes=(1, 0))
-    if not identity_x:
-        data = np.matmul(mx, data)
+    h, w, k = my.shape[0], mx.shape[0], data.shape[2]
+    if not _is_identity(my):
+        data = (my @ data.reshape(H, W * k)).reshape(h, W, k)
+    if not _is_identity(mx):
+        # rows of (pixel row, plane) against the x matrix: one 2-D product
+        data = (data.transpose(0, 2, 1).reshape(h * k, W) @ mx.T).reshape(h, k, w).transpose(0, 2, 1)
+    data = np.ascontiguousarray(data)
     if squeeze:
         data = data[:, :, 0]
-    return image.then("resample", data=np.ascontiguousarray(data), angular_resolution=camera.angular_resolution, distance=d)
+    return image.then("resample", data=data, angular_resolution=camera.angular_resolution, distance=d)
+
+
+def _is_identity(m):
+    return m.shape[0] == m.shape[1] and np.array_equal(m, np.eye(m.shape[0]))

@@ -67,7 +67,7 @@ def sensor_responses(camera, image):
     return image.then(
         "sensor_responses",
         data=out,
-        sensitivities=camera.sensors.on(image.wavelengths),
+        sensitivities=camera.sensors.on(image.wavelengths),  # cached by Sensors.on
         sensor_names=camera.sensors.names,
         exposure=camera.exposure,
         f_stop=camera.f_stop,
