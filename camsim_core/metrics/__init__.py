@@ -1,1 +1,45 @@
-"""Image quality metrics: CIELAB, S-CIELAB, block comparison (chapter 4.3). [stub: issue 4]"""
+"""Image quality metrics (chapter section 4.3 and the comparison of section 3.2).
+
+* :mod:`.cielab` - CIELAB Delta E*ab and CIEDE2000 from XYZ (colour-science);
+* :mod:`.s_cielab` - S-CIELAB (Zhang & Wandell), with the samples-per-degree rule;
+* :mod:`.block` - registration and block-averaged Delta E*ab (Figure 1.13);
+* :mod:`.real` - the real versus simulated Kodak DCS-200 comparison.
+
+Public names: :func:`delta_e`, :func:`scielab`, :func:`block_compare`.
+"""
+
+from .cielab import METHODS, delta_e, delta_e_lab, xyz_to_lab
+from .s_cielab import (
+    GAUSSIANS,
+    OPPONENT_TO_XYZ,
+    XYZ_TO_OPPONENT,
+    display_samples_per_degree,
+    filter_opponent,
+    samples_per_degree,
+    scielab,
+    scielab_filter,
+)
+from .block import BlockComparison, Registration, block_average, block_compare, register
+from .real import RealComparison, compare_real
+
+__all__ = [
+    "METHODS",
+    "delta_e",
+    "delta_e_lab",
+    "xyz_to_lab",
+    "scielab",
+    "scielab_filter",
+    "filter_opponent",
+    "samples_per_degree",
+    "display_samples_per_degree",
+    "XYZ_TO_OPPONENT",
+    "OPPONENT_TO_XYZ",
+    "GAUSSIANS",
+    "block_compare",
+    "block_average",
+    "register",
+    "BlockComparison",
+    "Registration",
+    "compare_real",
+    "RealComparison",
+]

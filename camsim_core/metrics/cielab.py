@@ -1,0 +1,141 @@
+"""CIELAB colour differences from XYZ images (chapter section 4.3).
+
+The chapter judges uniform regions with the CIELAB colour difference (its
+reference 44, CIE 15) and whole images with S-CIELAB (:mod:`.s_cielab`), both
+from CIE 1931 XYZ tristimulus values of the image as the monitor displays it.
+Everything colorimetric here is colour-science's (``colour.XYZ_to_Lab``,
+``colour.delta_E``); this module only checks the input and passes the white
+point on in absolute units.
+
+References
+----------
+CIE 15:2004, Colorimetry, 3rd ed. (CIE 1976 L*a*b*, Delta E*ab).
+Sharma, G., Wu, W. & Dalal, E. N. (2005), "The CIEDE2000 color-difference
+formula: implementation notes, supplementary test data, and mathematical
+observations", Color Res. Appl. 30(1), 21-30.
+"""
+
+from __future__ import annotations
+
+import colour
+import numpy as np
+
+from ..errors import ParameterError
+
+__all__ = ["METHODS", "xyz_to_lab", "delta_e", "delta_e_lab", "check_white", "check_xyz"]
+
+#: Colour-difference formulas offered (colour-science names).
+METHODS = ("CIE 1976", "CIE 2000")
+
+_ALIASES = {
+    "cie 1976": "CIE 1976",
+    "cie1976": "CIE 1976",
+    "1976": "CIE 1976",
+    "de76": "CIE 1976",
+    "cie 2000": "CIE 2000",
+    "cie2000": "CIE 2000",
+    "2000": "CIE 2000",
+    "ciede2000": "CIE 2000",
+    "de2000": "CIE 2000",
+}
+
+
+def _method(method):
+    key = str(method).strip().lower()
+    if key not in _ALIASES:
+        raise ParameterError("method", f"must be one of {METHODS}, got {method!r}")
+    return _ALIASES[key]
+
+
+def check_white(white, name="white"):
+    """The white point as a float array (3,) of positive, finite XYZ; else :class:`ParameterError`."""
+    try:
+        w = np.asarray(white, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError(name, f"must be three numbers X, Y, Z, got {white!r}") from None
+    if w.shape != (3,):
+        raise ParameterError(name, f"must be the XYZ of the white, shape (3,), got shape {w.shape}")
+    if not np.all(np.isfinite(w)) or np.any(w <= 0):
+        raise ParameterError(name, f"X, Y and Z of the white must all be positive and finite, got {w.tolist()}")
+    return w
+
+
+def check_xyz(xyz, name="xyz"):
+    """An XYZ image as a float array (..., 3) of finite values; else :class:`ParameterError`."""
+    try:
+        a = np.asarray(xyz, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError(name, "must be a numeric array of XYZ values (..., 3)") from None
+    if a.ndim == 0 or a.shape[-1] != 3:
+        raise ParameterError(name, f"must hold X, Y, Z along its last axis (shape (..., 3)), got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ParameterError(name, "contains NaN or infinite values")
+    return a
+
+
+def check_pair(xyz1, xyz2):
+    """Two XYZ images of the same shape (float arrays); else :class:`ParameterError`."""
+    a = check_xyz(xyz1, "xyz1")
+    b = check_xyz(xyz2, "xyz2")
+    if a.shape != b.shape:
+        raise ParameterError("xyz2", f"the two images must have the same shape, got {a.shape} and {b.shape}")
+    return a, b
+
+
+def xyz_to_lab(xyz, white):
+    """CIE 1976 L*a*b* of ``xyz`` relative to the white ``white`` (same units as ``xyz``).
+
+    Parameters
+    ----------
+    xyz : array_like (..., 3)
+        Tristimulus values, any unit (cd/m^2, or relative).
+    white : array_like (3,)
+        XYZ of the reference white in the same unit (Y_n is not assumed 1 or 100).
+
+    Returns
+    -------
+    ndarray (..., 3)
+        L* (0-100 for the white), a*, b*. Computed by ``colour.XYZ_to_Lab``
+        with the white given as xyY so that its luminance is kept.
+    """
+    w = check_white(white)
+    return _xyz_to_lab(check_xyz(xyz), w)
+
+
+def _xyz_to_lab(xyz, white):
+    # colour.XYZ_to_Lab accepts the reference white as xyY: X_n, Y_n, Z_n are
+    # then the white itself, so no rescaling of the image is needed.
+    return colour.XYZ_to_Lab(xyz, colour.XYZ_to_xyY(white))
+
+
+def delta_e_lab(lab1, lab2, method="CIE 1976"):
+    """Colour difference between two L*a*b* arrays (..., 3): ``colour.delta_E``."""
+    return colour.delta_E(np.asarray(lab1, float), np.asarray(lab2, float), method=_method(method))
+
+
+def delta_e(xyz1, xyz2, white, method="CIE 1976"):
+    """CIELAB colour difference map between two XYZ images (chapter section 4.3).
+
+    Parameters
+    ----------
+    xyz1, xyz2 : array_like (H, W, 3) (or any (..., 3), the same for both)
+        CIE 1931 XYZ of the two images as displayed, in the unit of ``white``.
+    white : array_like (3,)
+        XYZ of the reference white (e.g. the monitor's white); all positive.
+    method : {"CIE 1976", "CIE 2000"}
+        Delta E*ab (CIE 1976, the chapter's) or CIEDE2000.
+
+    Returns
+    -------
+    ndarray (H, W)
+        The colour difference at each pixel.
+
+    Raises
+    ------
+    ParameterError
+        Different shapes, a white with a zero or negative entry, an unknown method.
+    """
+    method = _method(method)
+    w = check_white(white)
+    a, b = check_pair(xyz1, xyz2)
+    return colour.delta_E(_xyz_to_lab(a, w), _xyz_to_lab(b, w), method=method)

@@ -1,0 +1,175 @@
+"""S-CIELAB (issue 4): zero for identical images, plain dE for a uniform shift,
+production filtering against an independent direct 2-D convolution, bad input."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.signal import convolve2d
+
+import camsim_core
+from camsim_core.errors import ParameterError
+from camsim_core.metrics import delta_e, filter_opponent, samples_per_degree, scielab
+from camsim_core.metrics import display_samples_per_degree
+
+WHITE = np.array([95.047, 100.0, 108.883])
+
+# ---- the issue's numbers, typed in again here (not imported from production) ----
+OPP = np.array(
+    [
+        [0.2787336, 0.7218031, -0.1065520],
+        [-0.4487736, 0.2898056, 0.0771569],
+        [0.0859513, -0.5899859, 0.5011089],
+    ]
+)
+CHANNELS = [
+    [(0.05, 1.00327), (0.225, 0.114416), (7.0, -0.117686)],
+    [(0.0685, 0.616725), (0.826, 0.383275)],
+    [(0.0920, 0.567885), (0.6451, 0.432115)],
+]
+
+
+def ref_gauss(h, width):
+    a = 2 * math.sqrt(math.log(2)) / (h - 1)
+    g = [math.exp(-((a * (i - width // 2)) ** 2)) for i in range(width)]
+    s = sum(g)
+    return np.array([v / s for v in g])
+
+
+def ref_subsample(k, u):
+    """Explicit loops: 'same' convolution with [1..u..1]/u, then every u-th tap out from the centre."""
+    tri = [min(i + 1, 2 * u - 1 - i) / u for i in range(2 * u - 1)]
+    n, c = len(k), len(k) // 2
+    up = np.zeros(n)
+    for i in range(n):  # output i, centred: sum_j k[j] tri[i - j + (u - 1)]
+        for j in range(n):
+            t = i - j + (u - 1)
+            if 0 <= t < len(tri):
+                up[i] += k[j] * tri[t]
+    taps = sorted({c + m * u for m in range(-n, n + 1) if 0 <= c + m * u < n})
+    return up[taps]
+
+
+def ref_kernel_2d(channel, spd):
+    """The channel's explicit 2-D kernel: sum over Gaussians of sqrt|w| g(y) * sign(w) sqrt|w| g(x)."""
+    u = math.ceil(224 / spd) if spd < 224 else 1
+    rate = spd * u
+    width = 2 * math.ceil(rate / 2) - 1
+    total = 0
+    for half, w in CHANNELS[channel]:
+        g = ref_gauss(half * rate, width)
+        if u > 1:
+            g = ref_subsample(g, u)
+        total = total + np.outer(math.sqrt(abs(w)) * g, math.copysign(1, w) * math.sqrt(abs(w)) * g)
+    return total
+
+
+def ref_filter(plane, kernel):
+    """Mirror (edge included) by min(kernel//2, n//2), zero beyond, direct 2-D convolution, crop."""
+    H, W = plane.shape
+    c = kernel.shape[0] // 2
+    py, px = min(c, H // 2), min(c, W // 2)
+    p = np.pad(plane, ((py, py), (px, px)), mode="symmetric")
+    p = np.pad(p, ((c - py, c - py), (c - px, c - px)))  # zeros beyond the mirrored margin
+    return convolve2d(p, kernel, mode="valid")
+
+
+# ---------------------------------------------------------------------------
+@pytest.mark.parametrize("spd", [250.0, 102.6, 37.0])
+@pytest.mark.parametrize("shape", [(70, 90), (23, 31), (5, 160)])
+def test_filtering_matches_direct_2d_convolution(spd, shape):
+    """Production (FFT of the summed kernel) == direct 2-D convolution, above and below 224 samples/deg;
+    (23, 31) is smaller than every kernel here, exercising the half-image mirror and the zeros beyond;
+    (5, 160) a strip only 5 rows high."""
+    if spd == 250.0 and shape == (70, 90):
+        shape = (40, 45)  # keep the direct convolution with a 249-tap kernel quick
+    rng = np.random.default_rng(1)
+    opp = rng.normal(size=shape + (3,))
+    out = filter_opponent(opp, spd)
+    for ch in range(3):
+        ref = ref_filter(opp[..., ch], ref_kernel_2d(ch, spd))
+        np.testing.assert_allclose(out[..., ch], ref, rtol=0, atol=1e-9)
+
+
+def test_upsampled_kernel_width_and_taps():
+    """At 102.6 samples/deg: u = 3, kernels built at 307.8/deg are 307 wide, keep 103 taps."""
+    k = ref_kernel_2d(0, 102.6)
+    out = filter_opponent(np.zeros((120, 120, 3)) + [1, 0, 0], 102.6)
+    assert k.shape == (103, 103)
+    # unit DC gain of the luminance filter at this rate: a uniform field stays uniform
+    np.testing.assert_allclose(out[..., 0], 1.0, atol=1e-12)
+
+
+def test_identical_images_give_zero():
+    rng = np.random.default_rng(2)
+    xyz = rng.uniform(5, 90, size=(64, 80, 3))
+    d = scielab(xyz, xyz.copy(), 102.6, WHITE)
+    assert d.shape == (64, 80)
+    assert np.max(np.abs(d)) < 1e-9
+
+
+@pytest.mark.parametrize("spd", [102.6, 230.0])
+@pytest.mark.parametrize("method", ["CIE 1976", "CIE 2000"])
+def test_uniform_shift_equals_plain_delta_e(spd, method):
+    """Images larger than the kernel: every channel filter has unit DC gain, so S-CIELAB == CIELAB."""
+    n = 2 * math.ceil(spd / 2) + 8
+    a = np.ones((n, n + 5, 3)) * [30.0, 35.0, 20.0]
+    b = np.ones((n, n + 5, 3)) * [34.0, 31.0, 26.0]
+    s = scielab(a, b, spd, WHITE, method=method)
+    plain = delta_e(a, b, WHITE, method=method)
+    assert plain.min() > 3  # a real difference, not a trivial zero
+    np.testing.assert_allclose(s, plain, rtol=1e-9)
+
+
+def test_blur_lowers_fine_pattern_difference():
+    """A fine red-green grating (2 px period at 102.6/deg, ~51 c/deg) against its mean: CIELAB sees a
+    large difference per pixel; the eye's filter (S-CIELAB) makes it nearly invisible."""
+    n = 120
+    a = np.ones((n, n, 3)) * [30.0, 30.0, 30.0]
+    b = a.copy()
+    b[:, ::2] += [4.0, -2.0, 0.0]
+    b[:, 1::2] -= [4.0, -2.0, 0.0]
+    s = scielab(a, b, 102.6, WHITE)
+    plain = delta_e(a, b, WHITE)
+    assert plain.mean() > 5 * s[20:-20, 20:-20].mean()
+
+
+# ---- samples per degree ----------------------------------------------------
+def test_samples_per_degree_is_the_camera_angular_resolution():
+    cam = camsim_core.load_camera("kodak-dcs200-ir")
+    assert samples_per_degree(cam) == pytest.approx(102.6)
+    assert samples_per_degree((100.0, 121.0)) == pytest.approx(110.0)
+
+
+def test_display_samples_per_degree_small_angle():
+    # 0.25 mm pixels at 0.5 m: pitch/distance = 5e-4 rad per pixel -> (pi / 180) / 5e-4 = 34.9 per degree
+    s = display_samples_per_degree(0.25e-3, 0.5)
+    assert s == pytest.approx(math.pi / 180 / 5e-4, rel=1e-6)
+
+
+# ---- bad input -------------------------------------------------------------
+def test_different_shapes_error():
+    with pytest.raises(ParameterError, match="same shape"):
+        scielab(np.ones((10, 12, 3)), np.ones((10, 13, 3)), 102.6, WHITE)
+
+
+@pytest.mark.parametrize("spd", [0, -5.0, float("nan"), float("inf"), "many"])
+def test_non_positive_samples_per_degree_error(spd):
+    with pytest.raises(ParameterError, match="samples_per_degree"):
+        scielab(np.ones((10, 12, 3)), np.ones((10, 12, 3)), spd, WHITE)
+
+
+@pytest.mark.parametrize("white", [[95.0, 0.0, 108.0], [0.0, 100.0, 100.0], [95.0, 100.0], [95.0, -1.0, 100.0]])
+def test_bad_white_error(white):
+    with pytest.raises(ParameterError, match="white"):
+        scielab(np.ones((10, 12, 3)), np.ones((10, 12, 3)), 102.6, white)
+
+
+def test_unknown_method_error():
+    with pytest.raises(ParameterError, match="method"):
+        scielab(np.ones((10, 12, 3)), np.ones((10, 12, 3)), 102.6, WHITE, method="CIE 1994 plus")
+
+
+def test_errors_are_value_errors():
+    with pytest.raises(ValueError, match="positive"):
+        scielab(np.ones((10, 12, 3)), np.ones((10, 12, 3)), 0, WHITE)
