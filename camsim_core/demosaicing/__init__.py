@@ -1,5 +1,87 @@
-"""Demosaicing (chapter section 4.1). [stub: being written for issue 3]"""
+"""Demosaicing (chapter section 4.1): estimate every sensor class at every pixel.
+
+``demosaic(image, method)`` takes a mosaiced :class:`~camsim_core.image.CameraImage`
+(one plane plus its tile, or a tiered tile) and returns a new image with
+``(H, W, K)`` sensor planes, ``mosaiced=False``, the tile kept, and
+``"demosaic:METHOD"`` appended to its history.
+
+Methods: ``bilinear`` (any tile), ``freeman`` (any tile), ``bayesian``
+(any tile; Brainard's method), ``malvar2004`` and ``menon2007`` (Bayer
+tiles only, through colour-demosaicing).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ParameterError
+from ._masks import check_mosaiced
+
+__all__ = ["demosaic", "METHODS"]
+
+
+def _bilinear(image, **options):
+    from .bilinear import demosaic_bilinear
+
+    return demosaic_bilinear(image, **options)
+
+
+def _freeman(image, **options):
+    from .freeman import demosaic_freeman
+
+    return demosaic_freeman(image, **options)
+
+
+def _bayesian(image, **options):
+    from .bayesian import demosaic_bayesian
+
+    return demosaic_bayesian(image, **options)
+
+
+def _malvar(image, **options):
+    from .bayer import demosaic_malvar2004
+
+    return demosaic_malvar2004(image, **options)
+
+
+def _menon(image, **options):
+    from .bayer import demosaic_menon2007
+
+    return demosaic_menon2007(image, **options)
+
+
+METHODS = {
+    "bilinear": _bilinear,
+    "freeman": _freeman,
+    "bayesian": _bayesian,
+    "malvar2004": _malvar,
+    "menon2007": _menon,
+}
 
 
 def demosaic(image, method="bilinear", **options):
-    raise NotImplementedError("demosaic is being written (issue 3)")
+    """Demosaic a camera image.
+
+    Parameters
+    ----------
+    image : CameraImage
+        Mosaiced (``image.mosaiced`` and a ``tile``), in digital units.
+    method : str
+        One of :data:`METHODS`.
+    **options
+        Passed to the method (e.g. ``size`` for Freeman's median filter,
+        ``window`` for the Bayesian neighbourhood).
+
+    Returns
+    -------
+    CameraImage
+        ``space="sensor"``, data (H, W, K), ``mosaiced=False``, tile kept.
+    """
+    key = str(method).lower()
+    if key not in METHODS:
+        raise ParameterError("method", f"unknown demosaicing method {method!r}; valid: {', '.join(METHODS)}")
+    check_mosaiced(image, key)
+    out = METHODS[key](image, **options)
+    extra = dict(image.extra)
+    extra["demosaic"] = key
+    return image.then(f"demosaic:{key}", data=out, mosaiced=False, space="sensor", extra=extra)

@@ -1,13 +1,112 @@
-"""Colour balancing and rendering, and the ideal image (chapter sections 4.2, 4.3). [stub: issue 3]"""
+"""Colour balancing and rendering (chapter section 4.2), the ideal image (4.3), and XYZ.
+
+``render(image, monitor, method)`` turns a demosaiced camera image into the
+8-bit frame-buffer values of a calibrated monitor:
+
+* ``"baseline"`` - Eq. 1.4 with the camera's own sensitivities
+  (:mod:`.baseline`);
+* ``"illuminant"`` - Eqs. 1.5-1.7: surface weights in a Munsell linear
+  model under the known or estimated illuminant, the cone responses they
+  would produce, then the baseline rendering of those with the cones
+  (:mod:`.illuminant`).
+
+Both use one display-scale rule fixed by the scene (see :mod:`.baseline`),
+shared with :func:`ideal_image`, so renderings of different cameras and the
+ideal image are directly comparable.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..monitor import Monitor, load_monitor
+from ._linear import apply_matrix, cones, per_band
+from .baseline import baseline_matrix, check_renderable, display_scale, to_frame_buffer
+from .ideal import ideal_camera, ideal_image
+from .illuminant import balance_matrix, matched_luminance, resolve_illuminant, surface_basis
+from .xyz import monitor_xyz_matrix, to_xyz, white_xyz
+
+__all__ = ["render", "to_xyz", "ideal_image", "ideal_camera", "monitor_xyz_matrix", "white_xyz", "METHODS"]
+
+METHODS = ("baseline", "illuminant")
 
 
-def render(image, monitor, method="baseline", illuminant=None, dimensions=None, **options):
-    raise NotImplementedError("render is being written (issue 3)")
+def _monitor(monitor):
+    if isinstance(monitor, Monitor):
+        return monitor
+    return load_monitor(monitor)
 
 
-def to_xyz(rendered, monitor):
-    raise NotImplementedError("to_xyz is being written (issue 3)")
+def render(image, monitor, method="baseline", illuminant=None, dimensions=None, *,
+           render_illuminant=None, white=None, scale=None):
+    """Render a demosaiced camera image for display on ``monitor``.
 
+    Parameters
+    ----------
+    image : CameraImage
+        Sensor planes (H, W, K), not mosaiced, with sensitivities.
+    monitor : Monitor or name
+    method : {"baseline", "illuminant"}
+    illuminant : None, Spectrum, illuminant name, "gray-world" or "max-rgb"
+        For ``method="illuminant"``: None uses the scene illuminant the image
+        carries; a string in ``("gray-world", "max-rgb")`` estimates it.
+    dimensions : int, optional
+        Surface linear-model dimension N_s (default: the number of sensors).
+    render_illuminant : None, Spectrum or name
+        Re-render the surfaces under this illuminant (scaled to the same
+        luminance) instead of the scene's, e.g. ``"D65"``.
+    white, scale :
+        Override the display scale (see :mod:`camsim_core.rendering.baseline`).
 
-def ideal_image(scene, camera, monitor, **simulate_kwargs):
-    raise NotImplementedError("ideal_image is being written (issue 3)")
+    Returns
+    -------
+    CameraImage
+        ``space="monitor"``, data (H, W, 3) integer frame-buffer values
+        0..255 (float array), ``bits=8``, ``quantized=True``. ``extra``
+        holds ``linear`` (the clipped linear settings), ``display_scale``,
+        ``scale_source`` and, for the illuminant method, ``illuminant`` (the
+        Spectrum used).
+    """
+    key = str(method).lower()
+    if key not in METHODS:
+        raise ParameterError("method", f"unknown rendering method {method!r}; valid: {', '.join(METHODS)}")
+    mon = _monitor(monitor)
+    r = check_renderable(image)
+    wls = image.wavelengths
+    b_m = mon.primaries_on(wls)
+    extra = dict(image.extra)
+    white_used = white
+    if key == "baseline":
+        if illuminant is not None or render_illuminant is not None or dimensions is not None:
+            raise ParameterError("method", "illuminant, render_illuminant and dimensions apply to method='illuminant' only")
+        w = apply_matrix(r, baseline_matrix(image.sensitivities, b_m))
+    else:
+        n_s = image.n_sensors if dimensions is None else int(dimensions)
+        e, spd = resolve_illuminant(image, r, illuminant)
+        e_render = None
+        if render_illuminant is not None:
+            _, rspd = resolve_illuminant(image, r, render_illuminant)
+            e_render = matched_luminance(per_band(rspd, wls), e, wls)
+            if white_used is None and image.illuminant is not None:
+                white_used = matched_luminance(e_render, per_band(image.illuminant, wls), wls)
+        t_h = cones(wls)
+        to_cones = balance_matrix(image.sensitivities, t_h, e, surface_basis(wls, n_s), e_render)
+        m = baseline_matrix(t_h, b_m, "cone-monitor matrix T_H B_M") @ to_cones
+        w = apply_matrix(r, m)
+        if white_used is None and image.illuminant is None:
+            white_used = e  # an estimated or given illuminant stands in for the scene's white
+        extra["illuminant"] = spd
+        extra["dimensions"] = n_s
+    s, source = display_scale(image, mon, white=white_used, scale=scale, linear=w)
+    linear = np.clip(w / s, 0.0, 1.0)
+    extra.update(linear=linear, display_scale=s, scale_source=source, monitor=mon.name)
+    return image.then(
+        f"render:{key}",
+        data=to_frame_buffer(linear, mon),
+        space="monitor",
+        bits=mon.bits,
+        quantized=True,
+        unit="frame-buffer values",
+        extra=extra,
+    )

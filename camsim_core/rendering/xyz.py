@@ -1,0 +1,44 @@
+"""Rendered monitor image -> CIE 1931 XYZ (chapter section 4.3): w -> B_M w -> XYZ.
+
+Frame-buffer values are turned into linear phosphor intensities by the
+monitor's gamma table, the emitted spectrum is ``B_M w`` (W/sr/m^2 per band,
+the monitor calibration's units), and ``XYZ = 683 sum(cmf x spectrum)``
+with the CIE 1931 2-degree colour-matching functions (colour-science), so
+Y is luminance in cd/m^2 (the ``simtoolbox-test`` monitor's white, all
+three phosphors at full setting, is about Y = 143 cd/m^2). The monitor's
+ambient light is left out (the chapter compares emitted images).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ParameterError
+from ._linear import apply_matrix
+
+__all__ = ["to_xyz", "monitor_xyz_matrix", "white_xyz"]
+
+
+def monitor_xyz_matrix(monitor):
+    """(3, 3) matrix from linear phosphor intensities to XYZ (cd/m^2): 683 cmf^T B_M."""
+    from ..datasets.sensors import cie1931_xyz
+
+    cmf = cie1931_xyz().on(monitor.wavelengths)
+    return 683.0 * cmf @ monitor.primaries
+
+
+def white_xyz(monitor):
+    """XYZ (cd/m^2) of the monitor's white (every phosphor at full setting): a white point for CIELAB."""
+    return monitor_xyz_matrix(monitor).sum(axis=1)
+
+
+def to_xyz(rendered, monitor):
+    """(H, W, 3) XYZ in cd/m^2 of a rendered image (``space="monitor"``, frame-buffer values) on ``monitor``."""
+    if getattr(rendered, "space", None) != "monitor":
+        raise ParameterError("rendered", f"needs a rendered monitor image (space 'monitor'), got {getattr(rendered, 'space', type(rendered).__name__)!r}")
+    data = np.asarray(rendered.data, float)
+    if data.ndim != 3 or data.shape[2] != 3:
+        raise ParameterError("rendered", f"expected (H, W, 3) monitor values, got {data.shape}")
+    full = float(2 ** (rendered.bits or monitor.bits) - 1)
+    linear = monitor.settings_to_linear(data / full)
+    return apply_matrix(linear, monitor_xyz_matrix(monitor))

@@ -1,0 +1,62 @@
+"""The ideal comparison image (chapter section 4.3)."""
+
+import colour
+import numpy as np
+import pytest
+
+import camsim_core as cs
+from camsim_core.camera import camera_preset
+from camsim_core.rendering import ideal_camera
+from camsim_core.scene import Scene, macbeth_scene
+
+
+@pytest.fixture(scope="module")
+def monitor():
+    return cs.load_monitor("simtoolbox-test")
+
+
+def test_ideal_has_camera_geometry_and_cones(monitor):
+    scene = macbeth_scene("D65", patch_size=10, border=2)
+    cam = camera_preset("kodak-dcs200-ir", noise_sigma=3.0)
+    raw = cs.simulate(scene, cam, exposure=0.05)
+    ideal = cs.ideal_image(scene, cam, monitor, exposure=0.05)
+    assert ideal.data.shape == raw.data.shape + (3,)  # same spatial resolution as the camera image
+    assert ideal.space == "monitor" and ideal.bits == 8 and ideal.quantized
+    assert ideal.angular_resolution == raw.angular_resolution
+    icam = ideal_camera(cam)
+    assert icam.mosaic is None and icam.noise_sigma == 0 and icam.bits == cam.bits
+    assert np.array_equal(icam.sensors.values, camera_preset("human-cones").sensors.values)
+    # noiseless: the same picture twice is identical, and a uniform patch stays uniform
+    again = cs.ideal_image(scene, cam, monitor, exposure=0.05, seed=7)
+    assert np.array_equal(ideal.data, again.data)
+
+
+def test_ideal_white_is_colorimetric_and_fills_the_display(monitor):
+    """A perfect white reflector renders at the top of the monitor's range with the light's chromaticity.
+
+    The display-scale rule maps the cone rendering of the scene illuminant's white to full scale in
+    the strongest channel; the cones are (nearly) a linear transform of the CIE 1931 functions,
+    so the displayed white has the chromaticity of the illuminant (colour-science's, for CIE A).
+    """
+    import colour as c
+
+    w = np.arange(400, 701, 10.0)
+    a = c.SDS_ILLUMINANTS["A"].copy().align(c.SpectralShape(400, 700, 10)).values
+    e = a / a.max() * 0.05
+    from camsim_core.spectra import Spectrum
+
+    scene = Scene(np.broadcast_to(e, (20, 20, w.size)).copy(), w, 1.0, (102.6, 102.6), illuminant=Spectrum(w, e, "A"))
+    cam = camera_preset("kodak-dcs200")
+    ideal = cs.ideal_image(scene, cam, monitor, exposure=cs.auto_exposure(scene, cam, target=0.8))
+    assert ideal.data.max() >= 254
+    xy = colour.XYZ_to_xy(cs.to_xyz(ideal, monitor)[10, 10])
+    xy_a = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["A"]
+    assert np.linalg.norm(xy - xy_a) < 0.01
+
+
+def test_ideal_is_independent_of_camera_sensors(monitor):
+    """The ideal image depends on the camera's geometry only, not on its sensors or noise."""
+    scene = macbeth_scene("D65", patch_size=8, border=2)
+    a = cs.ideal_image(scene, camera_preset("kodak-dcs200"), monitor, exposure=0.05)
+    b = cs.ideal_image(scene, camera_preset("gaussian-4", noise_sigma=5.0), monitor, exposure=0.05)
+    assert np.array_equal(a.data, b.data)
