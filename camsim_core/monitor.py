@@ -18,7 +18,7 @@ import numpy as np
 
 from .datasets import SIMTOOLBOX
 from .errors import FileFormatError, ParameterError
-from .spectra import resample, sampling_wavelengths
+from .spectra import resample_power, sampling_wavelengths
 
 __all__ = ["Monitor", "load_monitor", "MONITOR_NAMES"]
 
@@ -78,10 +78,7 @@ class Monitor:
 
     def primaries_on(self, wavelengths):
         """B_M on another sampling, kept in per-band units (scaled by the ratio of band widths)."""
-        t = np.asarray(wavelengths, float)
-        own = np.median(np.diff(self.wavelengths)) if self.wavelengths.size > 1 else 1.0
-        new = np.median(np.diff(t)) if t.size > 1 else own
-        return resample(self.wavelengths, self.primaries.T, t).T * (new / own)
+        return resample_power(self.wavelengths, self.primaries.T, wavelengths).T
 
     def linear_to_settings(self, linear):
         """Gamma correction by table lookup: linear intensities (..., 3) in [0, 1] -> settings in [0, 1]."""

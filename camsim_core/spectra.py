@@ -15,7 +15,7 @@ import numpy as np
 
 from .errors import ParameterError
 
-__all__ = ["Spectrum", "resample", "sampling_wavelengths", "check_overlap"]
+__all__ = ["Spectrum", "resample", "resample_power", "band_width", "sampling_wavelengths", "check_overlap"]
 
 
 def sampling_wavelengths(start, step, count):
@@ -64,6 +64,21 @@ def resample(wavelengths, values, target_wavelengths):
     return out.reshape(v.shape[:-1] + (t.size,))
 
 
+def band_width(wavelengths):
+    """The band width (nm) of a sampling: its median step (1 nm for a single sample)."""
+    w = np.asarray(wavelengths, float)
+    return float(np.median(np.diff(w))) if w.size > 1 else 1.0
+
+
+def resample_power(wavelengths, values, target_wavelengths):
+    """Power spectra given per band of ``wavelengths``, as power per band of ``target_wavelengths``.
+
+    Interpolation as :func:`resample`, times the ratio of the band widths, so
+    that a 5 nm-band illuminant on a 10 nm sampling keeps its radiance.
+    """
+    return resample(wavelengths, values, target_wavelengths) * (band_width(target_wavelengths) / band_width(wavelengths))
+
+
 @dataclass(frozen=True, eq=False)
 class Spectrum:
     """One spectral function (an illuminant, a reflectance) with its own sampling.
@@ -88,5 +103,13 @@ class Spectrum:
         object.__setattr__(self, "values", v)
 
     def on(self, wavelengths):
-        """Values resampled onto ``wavelengths`` (zero outside the measured range)."""
+        """Values interpolated onto ``wavelengths`` (zero outside the measured range).
+
+        Right for reflectances and sensitivities; a power spectrum that must
+        keep its per-band units wants :meth:`per_band`.
+        """
         return resample(self.wavelengths, self.values, wavelengths)
+
+    def per_band(self, wavelengths):
+        """A power spectrum as power per band of ``wavelengths`` (see :func:`resample_power`)."""
+        return resample_power(self.wavelengths, self.values, wavelengths)

@@ -15,11 +15,6 @@ __all__ = []
 RCOND = 1e-8
 
 
-def band_width(wavelengths):
-    w = np.asarray(wavelengths, float)
-    return float(np.median(np.diff(w))) if w.size > 1 else 1.0
-
-
 def per_band(spectrum, wavelengths):
     """A power spectrum on ``wavelengths`` in per-band units of that sampling.
 
@@ -29,7 +24,7 @@ def per_band(spectrum, wavelengths):
     taken to be on ``wavelengths`` already.
     """
     if isinstance(spectrum, Spectrum):
-        return spectrum.on(wavelengths) * (band_width(wavelengths) / band_width(spectrum.wavelengths))
+        return spectrum.per_band(wavelengths)
     v = np.asarray(spectrum, float).ravel()
     if v.size != np.size(wavelengths):
         raise ParameterError("illuminant", f"an array illuminant must have one value per wavelength ({np.size(wavelengths)}), got {v.size}")

@@ -166,7 +166,7 @@ def save_npz_scene(scene, path):
         angular_resolution=np.asarray(scene.angular_resolution, float),
     )
     if scene.illuminant is not None:
-        arrays["illuminant"] = scene.illuminant.on(scene.wavelengths)
+        arrays["illuminant"] = scene.illuminant.per_band(scene.wavelengths)
 
     def write(f):
         np.savez_compressed(f, **arrays)
