@@ -1,0 +1,17 @@
+"""The chapter's section 5 experiments, one task per configuration, on Dask.
+
+* :mod:`.sensors` - effect of sensor choice (Figure 1.14): S-CIELAB error
+  against alpha for the baseline and illuminant-based renderings;
+* :mod:`.mosaic` - three sensors on a Bayer tile versus four on a 2 x 2 grid
+  (Table 1.16);
+* :mod:`.grid` - validation of the parameter grid, the common exposure, task seeds;
+* :mod:`.runner` - in-process loop, local Dask cluster or existing scheduler;
+* :mod:`.results` - mean and std over seeds, CSV, text tables;
+* :mod:`.plot` - the two-panel figure (matplotlib, Agg).
+
+Command line: ``camsim experiment sensors`` and ``camsim experiment mosaic``.
+"""
+
+from . import grid, mosaic, results, runner, sensors  # plot (matplotlib) is imported on use
+
+__all__ = ["grid", "mosaic", "results", "runner", "sensors"]
