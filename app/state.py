@@ -1,0 +1,332 @@
+"""The explorer's state: one ``param.Parameterized`` object per browser session.
+
+It owns every user-visible parameter and the session's cached
+:class:`~camsim_core.cache.Pipeline`; views depend on its ``result``. Scenes,
+camera presets and monitors come from the engine's loaders, which read them
+once per process and share them read-only between sessions.
+
+A parameter combination the engine refuses (a tile naming a missing sensor,
+an unparsable list of Gaussian centres, a bad upload) sets ``message`` and
+leaves ``result`` at the last good one: the page never goes dead.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import tempfile
+import zipfile
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import param
+
+import camsim_core as cc
+from camsim_core.cache import Pipeline, Processing
+from camsim_core.camera import camera_preset
+from camsim_core.datasets.sensors import gaussian_sensors
+from camsim_core.errors import CamsimError, FileFormatError, ParameterError
+from camsim_core.simulation import BAYER, FOUR_SENSOR_GRID
+
+__all__ = ["ExplorerState", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_PARAMETERS", "parse_tile", "load_upload"]
+
+#: Camera presets offered (``mixture`` uses the alpha slider).
+CAMERA_CHOICES = tuple(cc.CAMERA_NAMES) + ("mixture",)
+#: Mosaic layouts offered: the camera's own, Bayer phases, the 2 x 2 four-sensor grid, none, or a custom tile.
+MOSAIC_CHOICES = ("preset",) + tuple(BAYER) + ("4-sensor grid", "none", "custom")
+#: Bits offered; 0 means unquantized.
+BITS_CHOICES = {"8": 8, "10": 10, "12": 12, "16": 16, "unquantized": 0}
+RENDER_CHOICES = ("baseline", "illuminant")
+ILLUMINANT_CHOICES = ("known", "gray-world", "max-rgb")
+METRIC_CHOICES = ("CIELAB", "S-CIELAB")
+GAUSSIAN_DEFAULTS = {"gaussian-3": ("640, 520, 460", "27"), "gaussian-4": ("460, 520, 580, 640", "27")}
+
+#: The parameters a URL carries (name in the URL = parameter name).
+URL_PARAMETERS = (
+    "scene", "camera", "alpha", "gaussian_centers", "gaussian_widths", "mosaic", "custom_tile",
+    "distance", "exposure", "f_stop", "noise_sigma", "bits", "seed",
+    "demosaic_method", "render_method", "illuminant", "monitor", "metric", "wavelength",
+)
+
+
+def demosaic_methods():
+    """Demosaicing methods the engine offers (its ``METHODS`` if published)."""
+    from camsim_core import demosaicing
+
+    methods = getattr(demosaicing, "METHODS", None) or getattr(demosaicing, "DEMOSAIC_METHODS", None)
+    if methods:
+        return tuple(methods)
+    return ("bilinear",)
+
+
+@lru_cache(maxsize=None)
+def preset(name):
+    """A shipped camera (read once per process; cameras are immutable)."""
+    return camera_preset(name)
+
+
+def parse_numbers(text, name):
+    """Comma- or space-separated numbers from a text field."""
+    try:
+        values = [float(v) for v in str(text).replace(",", " ").split()]
+    except ValueError:
+        raise ParameterError(name, f"expected numbers separated by commas, got {text!r}") from None
+    if not values:
+        raise ParameterError(name, "expected at least one number")
+    return values
+
+
+def parse_tile(text):
+    """A tile from text: rows separated by ';' or new lines, entries by spaces or commas (0-based)."""
+    rows = [r for r in str(text).replace("\n", ";").split(";") if r.strip()]
+    try:
+        tile = [[int(v) for v in r.replace(",", " ").split()] for r in rows]
+    except ValueError:
+        raise ParameterError("custom_tile", f"entries must be whole sensor indices, got {text!r}") from None
+    if not tile or len({len(r) for r in tile}) != 1 or not tile[0]:
+        raise ParameterError("custom_tile", "rows must be non-empty and of equal length, e.g. '1 0; 2 1'")
+    return np.array(tile)
+
+
+def load_upload(filename, content):
+    """A Scene from uploaded bytes: an ``.npz``, or a ``.zip`` holding a ``.Simg`` and its planes.
+
+    Raises FileFormatError with a message for the user when the upload is not a scene.
+    """
+    name = Path(filename or "upload").name
+    suffix = Path(name).suffix.lower()
+    if suffix not in (".npz", ".zip"):
+        raise FileFormatError(name, "upload a scene as .npz, or a .zip of a .Simg header with its planes")
+    try:
+        return _load_upload(name, suffix, content)
+    except FileFormatError as exc:
+        # name the user's file, not the server's temporary copy
+        raise FileFormatError(name, str(exc).split(": ", 1)[-1]) from None
+
+
+def _load_upload(name, suffix, content):
+    with tempfile.TemporaryDirectory(prefix="camsim-upload-") as tmp:
+        tmp = Path(tmp)
+        if suffix == ".npz":
+            path = tmp / name
+            path.write_bytes(content)
+            scene = cc.load_scene(path)
+        else:
+            try:
+                with zipfile.ZipFile(io.BytesIO(content)) as z:
+                    for member in z.infolist():
+                        target = (tmp / member.filename).resolve()
+                        if not str(target).startswith(str(tmp.resolve())):
+                            raise FileFormatError(name, f"unsafe path in zip: {member.filename}")
+                    z.extractall(tmp)
+            except zipfile.BadZipFile:
+                raise FileFormatError(name, "not a readable zip file") from None
+            headers = sorted(tmp.rglob("*.Simg")) + sorted(tmp.rglob("*.simg"))
+            if not headers:
+                raise FileFormatError(name, "the zip holds no .Simg header")
+            scene = cc.load_scene(headers[0])
+    return scene
+
+
+class ExplorerState(param.Parameterized):
+    """Every parameter of one explorer session, and its cached pipeline."""
+
+    # scene
+    scene = param.Selector(default="cacaphony290", objects=list(cc.SCENE_NAMES), doc="Shipped scene, or an uploaded one")
+    wavelength = param.Number(default=550.0, doc="Wavelength (nm) of the plane shown in the scene view")
+    # camera
+    camera = param.Selector(default="kodak-dcs200-ir", objects=list(CAMERA_CHOICES), doc="Camera preset")
+    alpha = param.Number(default=0.5, bounds=(0.0, 1.0), step=0.1, doc="Mixture: (1 - alpha) cones + alpha DCS-200")
+    gaussian_centers = param.String(default="640, 520, 460", doc="Gaussian sensor centres, nm")
+    gaussian_widths = param.String(default="27", doc="Gaussian standard deviations, nm (one or one per sensor)")
+    mosaic = param.Selector(default="preset", objects=list(MOSAIC_CHOICES), doc="Mosaic layout")
+    custom_tile = param.String(default="1 0; 2 1", doc="Custom tile: 0-based sensor indices, rows separated by ';'")
+    distance = param.Number(default=3.32, bounds=(0.5, 20.0), step=0.01, doc="Camera to scene, m")
+    exposure = param.Number(default=0.1, bounds=(1e-4, 10.0), step=0.005, doc="Exposure time, s")
+    f_stop = param.Number(default=11.0, bounds=(1.0, 32.0), step=0.1, doc="f-number")
+    noise_sigma = param.Number(default=0.0, bounds=(0.0, 50.0), step=0.5, doc="Noise standard deviation, digital units")
+    bits = param.Integer(default=8, bounds=(0, 16), doc="Quantization bits; 0 = unquantized")
+    seed = param.Integer(default=0, bounds=(0, None), doc="Noise seed")
+    # processing
+    demosaic_method = param.Selector(default="bilinear", objects=list(demosaic_methods()))
+    render_method = param.Selector(default="baseline", objects=list(RENDER_CHOICES))
+    illuminant = param.Selector(default="known", objects=list(ILLUMINANT_CHOICES))
+    monitor = param.Selector(default="simtoolbox-test", objects=list(cc.MONITOR_NAMES))
+    metric = param.Selector(default="CIELAB", objects=list(METRIC_CHOICES), doc="Error map and histogram shown")
+    # outputs (not user parameters)
+    result = param.Parameter(default=None, precedence=-1, doc="Last good pipeline result")
+    message = param.String(default="", precedence=-1, doc="Last problem, for the page's alert")
+    notice = param.String(default="", precedence=-1, doc="Steps not available (engine work in progress)")
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        self.pipeline = Pipeline()
+        self._uploads = {}
+        self._updating = False
+        self.param.watch(self._on_change, [p for p in URL_PARAMETERS if p not in ("wavelength",)])
+        self.recompute()
+
+    # -- building engine objects ------------------------------------------
+    def scene_object(self):
+        """The Scene: a shipped one (shared, read-only) or this session's upload."""
+        if self.scene in self._uploads:
+            return self._uploads[self.scene]
+        return cc.load_scene(self.scene)
+
+    def camera_object(self):
+        """The Camera the parameters describe; raises CamsimError on a bad combination."""
+        if self.camera == "mixture":
+            cam = preset(f"mixture-{round(float(self.alpha), 3):g}")
+        else:
+            cam = preset(self.camera)
+        changes = {}
+        if self.camera in GAUSSIAN_DEFAULTS:
+            centers = parse_numbers(self.gaussian_centers, "gaussian_centers")
+            widths = parse_numbers(self.gaussian_widths, "gaussian_widths")
+            if len(widths) not in (1, len(centers)):
+                raise ParameterError("gaussian_widths", f"give one width or one per sensor ({len(centers)})")
+            names = ("R", "G", "B") if len(centers) == 3 and self.camera == "gaussian-3" else None
+            changes["sensors"] = gaussian_sensors(centers, widths if len(widths) > 1 else widths[0], names=names)
+        changes["mosaic"] = self.tile(cam)
+        changes.update(
+            distance=float(self.distance),
+            exposure=float(self.exposure),
+            f_stop=float(self.f_stop),
+            noise_sigma=float(self.noise_sigma),
+            noise_mean=0.0,
+            bits=int(self.bits) or None,
+            seed=int(self.seed),
+        )
+        return cam.replace(**changes)
+
+    def tile(self, cam):
+        """The mosaic tile chosen (before validation against the sensors)."""
+        if self.mosaic == "preset":
+            return cam.mosaic
+        if self.mosaic in BAYER:
+            return BAYER[self.mosaic]
+        if self.mosaic == "4-sensor grid":
+            return FOUR_SENSOR_GRID
+        if self.mosaic == "none":
+            return None
+        return parse_tile(self.custom_tile)
+
+    def processing(self):
+        return Processing(
+            demosaic=self.demosaic_method,
+            render=self.render_method,
+            illuminant=None if self.illuminant == "known" else self.illuminant,
+            monitor=self.monitor,
+            metrics=("cielab",) if self.metric == "CIELAB" else ("cielab", "scielab"),
+        )
+
+    # -- running -------------------------------------------------------------
+    def _on_change(self, *events):
+        if self._updating:
+            return
+        names = {e.name for e in events}
+        if "camera" in names and self.camera in GAUSSIAN_DEFAULTS:
+            centers, widths = GAUSSIAN_DEFAULTS[self.camera]
+            if len(parse_numbers_safe(self.gaussian_centers)) != len(parse_numbers_safe(centers)):
+                self._updating = True
+                try:
+                    self.param.update(gaussian_centers=centers, gaussian_widths=widths)
+                finally:
+                    self._updating = False
+        self.recompute()
+
+    def recompute(self):
+        """Run the cached pipeline; keep the last good result when the parameters are refused."""
+        try:
+            scene = self.scene_object()
+            camera = self.camera_object()
+            res = self.pipeline.run(scene, camera, self.processing())
+        except CamsimError as exc:
+            self.message = str(exc)
+            return
+        except Exception as exc:  # never a dead page
+            self.message = f"{type(exc).__name__}: {exc}"
+            return
+        if res.raw is None:
+            self.message = "; ".join(f"{k}: {v}" for k, v in res.errors.items())
+            return
+        unavailable = {k: v for k, v in res.errors.items() if "NotImplementedError" in v}
+        refused = {k: v for k, v in res.errors.items() if k not in unavailable}
+        self.notice = ("Not yet available in the engine: " + ", ".join(unavailable)) if unavailable else ""
+        if refused:  # a bad combination (e.g. a Bayer-only demosaicing on a 4-sensor grid)
+            self.message = "; ".join(f"{k}: {v}" for k, v in refused.items())
+            return
+        self.message = ""
+        self.result = res
+
+    def auto_expose(self):
+        """Set the exposure so that the scene's bright end sits at 90 % of full scale."""
+        try:
+            self.exposure = float(np.clip(cc.auto_exposure(self.scene_object(), self.camera_object()), 1e-4, 10.0))
+        except CamsimError as exc:
+            self.message = str(exc)
+
+    def add_upload(self, filename, content):
+        """Validate and select an uploaded scene; on failure set ``message`` and keep the current scene."""
+        try:
+            scene = load_upload(filename, content)
+        except CamsimError as exc:
+            self.message = f"Upload refused: {exc}"
+            return False
+        except Exception as exc:
+            self.message = f"Upload refused: {filename}: {type(exc).__name__}: {exc}"
+            return False
+        self.message = ""
+        self.add_scene(f"upload:{Path(filename).stem}", scene)
+        return True
+
+    def add_scene(self, key, scene):
+        """Offer ``scene`` (a Scene object) under ``key`` in this session and select it."""
+        self._uploads[key] = scene
+        objs = list(self.param.scene.objects)
+        if key not in objs:
+            self.param.scene.objects = objs + [key]
+        self.scene = key
+
+    # -- reproducible state ----------------------------------------------------
+    def to_dict(self):
+        """The parameters as plain JSON values."""
+        return {p: getattr(self, p) for p in URL_PARAMETERS}
+
+    def to_json(self):
+        return json.dumps(self.to_dict(), indent=2)
+
+    def from_json(self, text):
+        """Apply parameters from JSON text; unknown or invalid entries are refused with a message."""
+        try:
+            values = json.loads(text)
+        except (ValueError, UnicodeDecodeError) as exc:
+            self.message = f"Parameters file is not JSON: {exc}"
+            return False
+        if not isinstance(values, dict):
+            self.message = "Parameters file must hold a JSON object {name: value}"
+            return False
+        unknown = sorted(set(values) - set(URL_PARAMETERS))
+        if unknown:
+            self.message = f"Parameters file has unknown entries: {', '.join(unknown)}"
+            return False
+        before = self.to_dict()
+        try:
+            self._updating = True
+            self.param.update(**values)
+        except (ValueError, TypeError) as exc:
+            self.param.update(**before)
+            self.message = f"Parameters file refused: {exc}"
+            return False
+        finally:
+            self._updating = False
+        self.recompute()
+        return True
+
+
+def parse_numbers_safe(text):
+    try:
+        return parse_numbers(text, "numbers")
+    except ParameterError:
+        return []

@@ -1,0 +1,291 @@
+"""An incremental pipeline: re-run only the steps downstream of a change.
+
+The explorer (issue 5) re-computes the camera image after every slider move.
+:class:`Pipeline` remembers, for each step, a key made of its parameters and
+of the token of the step that fed it, and re-runs a step only when that key
+changed. Simulation stages declare the camera fields they read (``stage.uses``,
+see :mod:`camsim_core.simulation`), so changing ``noise_sigma`` re-runs the
+noise stage and what follows it, never the sensor responses or the
+resampling (chapter section 3.1: the stages are independent operators).
+
+The steps, in order:
+
+* one per stage of ``camera.architecture`` (by default ``sensor_responses``,
+  ``resample``, ``mosaic``, ``noise``, ``digitize``);
+* ``demosaic``, ``render``, ``ideal`` (the ideal image of section 4.3),
+  ``xyz`` and ``ideal_xyz`` (both on the monitor), ``delta_e`` (CIELAB) and
+  ``scielab`` (S-CIELAB) error maps.
+
+Each call to :meth:`Pipeline.run` records which steps ran and how long each
+took (``Result.ran``). A step that fails (a processing routine not written
+yet, a parameter combination the engine refuses) is reported in
+``Result.errors`` and the steps that need its output are skipped; nothing is
+cached for it. Results are exactly those of a fresh run (no approximation:
+the cache only skips work whose inputs are unchanged).
+
+Scenes and monitors are shared read-only between pipelines (one process
+serves many explorer sessions); a pipeline never modifies its inputs.
+
+No GUI imports: this module is engine code.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import itertools
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .datasets.sensors import Sensors
+from .errors import CamsimError
+from .image import image_from_scene
+from .spectra import Spectrum
+
+__all__ = ["Processing", "Pipeline", "Result", "fingerprint", "PROCESSING_STEPS"]
+
+#: The steps after the simulation stages, in order.
+PROCESSING_STEPS = ("demosaic", "render", "ideal", "xyz", "ideal_xyz", "delta_e", "scielab")
+
+_tokens = itertools.count(1)
+
+
+@dataclass(frozen=True)
+class Processing:
+    """What happens to the camera image after the simulation.
+
+    Attributes
+    ----------
+    demosaic : str
+        Method of :func:`camsim_core.demosaic`.
+    render : str
+        "baseline" or "illuminant" (:func:`camsim_core.render`).
+    illuminant : str or None
+        For "illuminant" rendering: ``None`` uses the known illuminant the
+        image carries; "gray-world" or "max-rgb" estimate it.
+    monitor : str
+        A shipped monitor name (:data:`camsim_core.MONITOR_NAMES`).
+    metrics : tuple of str
+        Which error maps to compute: "cielab" and/or "scielab".
+    """
+
+    demosaic: str = "bilinear"
+    render: str = "baseline"
+    illuminant: str | None = None
+    monitor: str = "simtoolbox-test"
+    metrics: tuple = ("cielab", "scielab")
+
+
+@dataclass
+class Result:
+    """The outputs of one :meth:`Pipeline.run`. Missing outputs are ``None``.
+
+    ``raw`` is the simulated camera image; ``delta_e`` and ``scielab`` are
+    (H, W) error maps in CIELAB Delta E units against the ideal image;
+    ``ran`` lists ``(step, seconds)`` for the steps that were (re-)computed;
+    ``errors`` maps a failed step to its message.
+    """
+
+    scene: object = None
+    camera: object = None
+    raw: object = None
+    demosaiced: object = None
+    rendered: object = None
+    ideal: object = None
+    xyz: object = None
+    ideal_xyz: object = None
+    delta_e: object = None
+    scielab: object = None
+    white: object = None
+    ran: list = field(default_factory=list)
+    errors: dict = field(default_factory=dict)
+
+    @property
+    def ran_steps(self):
+        """Names of the steps that ran, in order."""
+        return [name for name, _ in self.ran]
+
+    @property
+    def seconds(self):
+        """Total time of the steps that ran."""
+        return float(sum(t for _, t in self.ran))
+
+
+def fingerprint(value):
+    """A hashable, value-based summary of a camera field (arrays by content)."""
+    if value is None or isinstance(value, (bool, int, float, str, np.integer, np.floating)):
+        return value
+    if isinstance(value, np.ndarray):
+        a = np.ascontiguousarray(value)
+        return ("array", a.shape, a.dtype.str, hashlib.blake2b(a.tobytes(), digest_size=16).hexdigest())
+    if isinstance(value, (tuple, list)):
+        return tuple(fingerprint(v) for v in value)
+    if isinstance(value, dict):
+        return tuple(sorted((k, fingerprint(v)) for k, v in value.items()))
+    if isinstance(value, Sensors):
+        return ("sensors", fingerprint(value.wavelengths), fingerprint(value.values), value.names, value.unit)
+    if isinstance(value, Spectrum):
+        return ("spectrum", fingerprint(value.wavelengths), fingerprint(value.values))
+    if callable(value):
+        return ("callable", getattr(value, "__module__", ""), getattr(value, "__qualname__", repr(value)), id(value))
+    return ("object", id(value))
+
+
+def _camera_key(camera, fields):
+    return tuple((f, fingerprint(getattr(camera, f))) for f in fields)
+
+
+def _all_fields(camera):
+    return tuple(f.name for f in dataclasses.fields(camera))
+
+
+class Pipeline:
+    """Cached simulation and processing for one user (one explorer session).
+
+    Not thread-safe: give each session its own pipeline. The cache holds one
+    entry per step (the last inputs), which is what an interactive user needs.
+    """
+
+    def __init__(self):
+        self._memo = {}
+
+    def clear(self):
+        """Forget every cached step."""
+        self._memo.clear()
+
+    def _step(self, name, key, compute, result):
+        """The cached output of ``name`` for ``key``, or compute, time and remember it.
+
+        Returns ``(token, value)``; ``(None, None)`` when the step failed
+        (its message is put in ``result.errors``).
+        """
+        memo = self._memo.get(name)
+        if memo is not None and memo[0] == key:
+            return memo[1], memo[2]
+        t0 = time.perf_counter()
+        try:
+            value = compute()
+        except (CamsimError, NotImplementedError, ValueError, TypeError, KeyError, IndexError, ArithmeticError) as exc:
+            self._memo.pop(name, None)
+            result.ran.append((name, time.perf_counter() - t0))
+            result.errors[name] = f"{type(exc).__name__}: {exc}" if isinstance(exc, NotImplementedError) else str(exc)
+            return None, None
+        result.ran.append((name, time.perf_counter() - t0))
+        token = next(_tokens)
+        self._memo[name] = (key, token, value)
+        return token, value
+
+    def run(self, scene, camera, processing=None):
+        """Simulate ``camera`` on ``scene`` and process the result, re-using what has not changed.
+
+        Parameters
+        ----------
+        scene : Scene
+            Compared by identity: pass the same (shared, read-only) object to re-use work.
+        camera : Camera
+        processing : Processing, optional
+
+        Returns
+        -------
+        Result
+        """
+        from . import demosaic, ideal_image, load_monitor, metrics, render, to_xyz
+        from .rendering import ideal_camera, white_xyz
+
+        proc = processing or Processing()
+        result = Result(scene=scene, camera=camera)
+        # the scene: compared by identity (shared objects), never copied
+        memo = self._memo.get("scene")
+        if memo is None or memo[2] is not scene:
+            self._memo["scene"] = (id(scene), next(_tokens), scene)
+        token, image = self._memo["scene"][1], None
+        for stage in camera.architecture:
+            uses = getattr(stage, "uses", None)
+            fields = _all_fields(camera) if uses is None else uses
+            key = (token, fingerprint(stage), _camera_key(camera, fields))
+            name = getattr(stage, "__name__", repr(stage))
+            upstream = image
+
+            def compute(stage=stage, upstream=upstream):
+                return stage(camera, image_from_scene(scene) if upstream is None else upstream)
+
+            token, image = self._step(f"stage:{name}", key, compute, result)
+            if token is None:
+                return result
+        result.raw = image
+        sim_token = token
+
+        monitor = load_monitor(proc.monitor)
+        t_dem, result.demosaiced = self._step(
+            "demosaic", (sim_token, proc.demosaic), lambda: demosaic(result.raw, proc.demosaic), result
+        )
+        t_ren = None
+        if t_dem is not None:
+            illum = proc.illuminant if proc.render == "illuminant" else None
+            t_ren, result.rendered = self._step(
+                "render",
+                (t_dem, proc.render, illum, proc.monitor),
+                lambda: render(result.demosaiced, monitor, method=proc.render, illuminant=illum),
+                result,
+            )
+        # the ideal image depends on the camera only through its ideal
+        # counterpart (cones, no mosaic, no noise, same geometry and exposure)
+        scene_token = self._memo["scene"][1]
+        try:
+            ideal_key = (scene_token, _ideal_key(ideal_camera(camera)), proc.monitor)
+        except CamsimError as exc:
+            result.errors["ideal"] = str(exc)
+            t_ideal = None
+        else:
+            t_ideal, result.ideal = self._step("ideal", ideal_key, lambda: ideal_image(scene, camera, monitor), result)
+        t_xyz = None
+        if t_ren is not None:
+            t_xyz, result.xyz = self._step("xyz", (t_ren, proc.monitor), lambda: to_xyz(result.rendered, monitor), result)
+        t_ixyz = None
+        if t_ideal is not None:
+            t_ixyz, result.ideal_xyz = self._step(
+                "ideal_xyz", (t_ideal, proc.monitor), lambda: to_xyz(result.ideal, monitor), result
+            )
+        if t_xyz is None or t_ixyz is None:
+            return result
+        result.white = np.asarray(white_xyz(monitor), float)
+        if "cielab" in proc.metrics:
+            _, result.delta_e = self._step(
+                "delta_e",
+                (t_xyz, t_ixyz),
+                lambda: metrics.delta_e(_data(result.xyz), _data(result.ideal_xyz), result.white),
+                result,
+            )
+        if "scielab" in proc.metrics:
+            _, result.scielab = self._step(
+                "scielab",
+                (t_xyz, t_ixyz),
+                lambda: metrics.scielab(
+                    _data(result.xyz), _data(result.ideal_xyz), _samples_per_degree(result.rendered), result.white
+                ),
+                result,
+            )
+        return result
+
+
+def _ideal_key(ideal_cam):
+    """What the ideal image depends on: every field of the ideal camera but its name (and
+    its seed, since it is noiseless)."""
+    skip = {"name", "comments"}
+    if ideal_cam.noise_model == "gaussian" and ideal_cam.noise_sigma == 0 and ideal_cam.noise_mean == 0:
+        skip.add("seed")  # a noiseless camera draws no random numbers
+    return _camera_key(ideal_cam, tuple(f for f in _all_fields(ideal_cam) if f not in skip))
+
+
+def _data(x):
+    """The array of a CameraImage, or the array itself."""
+    return np.asarray(getattr(x, "data", x))
+
+
+def _samples_per_degree(image):
+    """Samples per degree of visual angle for S-CIELAB: the image's angular resolution."""
+    from . import metrics
+
+    return metrics.samples_per_degree(image)

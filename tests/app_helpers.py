@@ -1,0 +1,144 @@
+"""Helpers for the explorer's browser tests: a server subprocess and Playwright page utilities.
+
+The page exposes what tests read in a small JSON pane (``.camsim-status``:
+parameters, mean and median dE, content hashes of the raw and rendered
+images, the tile, the steps that ran); widgets carry stable CSS classes
+(``w-noise``, ``w-render``, ``w-mosaic``, ...).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from contextlib import contextmanager
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+ARTIFACTS = ROOT / "test-artifacts"
+CHROMIUM = os.environ.get("CAMSIM_CHROMIUM", "/usr/bin/chromium")
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking"]
+TIMEOUT = 60.0
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@contextmanager
+def explorer_server(scene=None):
+    """``camsim serve`` on 127.0.0.1 and a free port, in a subprocess; yields the base URL."""
+    port = free_port()
+    cmd = [sys.executable, "-m", "camsim_core.cli", "serve", "--port", str(port), "--address", "127.0.0.1"]
+    if scene:
+        cmd += ["--scene", scene]
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", BOKEH_LOG_LEVEL="warn")
+    log = open(ARTIFACTS / f"server-{port}.log", "w") if ARTIFACTS.exists() else subprocess.DEVNULL
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT)
+    url = f"http://127.0.0.1:{port}/"
+    try:
+        deadline = time.monotonic() + TIMEOUT
+        while True:
+            if proc.poll() is not None:
+                raise RuntimeError(f"camsim serve exited with status {proc.returncode} (see {getattr(log, 'name', 'log')})")
+            try:
+                with urllib.request.urlopen(url, timeout=5) as r:
+                    if r.status == 200:
+                        break
+            except OSError:
+                pass
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"camsim serve did not answer on {url} within {TIMEOUT:.0f} s")
+            time.sleep(0.3)
+        yield url
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+        if hasattr(log, "close"):
+            log.close()
+
+
+def chromium_path():
+    """The system Chromium, or a clear failure message (never a download)."""
+    path = CHROMIUM if os.path.exists(CHROMIUM) else shutil.which("chromium")
+    if not path:
+        raise RuntimeError(
+            f"Chromium not found at {CHROMIUM} nor on PATH: install Debian's chromium (`make chromium` or "
+            "`apt-get install chromium`); the browser tests drive the system browser and never download one")
+    return path
+
+
+class Page:
+    """A Playwright page on the explorer, with its console messages."""
+
+    def __init__(self, browser, url):
+        self.page = browser.new_page(viewport={"width": 1500, "height": 1100})
+        self.console = []
+        self.page.on("console", lambda m: self.console.append((m.type, m.text)))
+        self.page.on("pageerror", lambda e: self.console.append(("pageerror", str(e))))
+        self.page.goto(url)
+        self.page.locator(".camsim-status pre").first.wait_for(timeout=TIMEOUT * 1000)
+        self.wait_for(lambda s: s.get("mean_de") is not None)
+
+    def status(self):
+        text = self.page.locator(".camsim-status pre").first.inner_text()
+        try:
+            return json.loads(text)
+        except ValueError:
+            return {}
+
+    def wait_for(self, predicate, timeout=TIMEOUT):
+        """Poll the status pane until ``predicate(status)`` holds; return the status."""
+        deadline = time.monotonic() + timeout
+        while True:
+            s = self.status()
+            if s and predicate(s):
+                return s
+            if time.monotonic() > deadline:
+                raise AssertionError(f"status never satisfied the condition; last: {s}")
+            time.sleep(0.2)
+
+    def params(self):
+        return self.status()["params"]
+
+    def select(self, css, value):
+        self.page.locator(f".{css} select").first.select_option(value)
+
+    def type_number(self, css, value):
+        box = self.page.locator(f".{css} input").first
+        box.fill(str(value))
+        box.press("Enter")
+
+    def alert_text(self):
+        loc = self.page.locator(".camsim-alert")
+        if not (loc.count() and loc.first.is_visible()):
+            return ""
+        return self.text(".camsim-alert")
+
+    def text(self, css):
+        """Visible text of a Markdown-like pane (its content lives in a shadow root)."""
+        return " ".join(self.page.locator(f"{css} p").all_inner_texts())
+
+    def shot(self, name, selector=None):
+        ARTIFACTS.mkdir(exist_ok=True)
+        path = ARTIFACTS / f"{name}.png"
+        if selector:
+            return self.page.locator(selector).first.screenshot(path=str(path))
+        return self.page.screenshot(path=str(path), full_page=True)
+
+    def errors(self):
+        return [m for m in self.console if m[0] in ("error", "pageerror")]
+
+    def close(self):
+        self.page.close()

@@ -1,0 +1,122 @@
+"""The explorer's incremental pipeline (camsim_core.cache): what re-runs, and exact equality with a fresh run."""
+
+import numpy as np
+import pytest
+
+import camsim_core as cc
+from camsim_core.cache import Pipeline, Processing, fingerprint
+from camsim_core.simulation import BAYER, FOUR_SENSOR_GRID
+
+CIELAB = Processing(metrics=("cielab",))
+OUTPUTS = ("raw", "demosaiced", "rendered", "ideal", "xyz", "ideal_xyz", "delta_e", "scielab")
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return cc.load_scene("cacaphony290")
+
+
+@pytest.fixture(scope="module")
+def camera():
+    return cc.load_camera("kodak-dcs200-ir").replace(distance=3.32, exposure=0.1, f_stop=11.0, noise_sigma=0.0, seed=0)
+
+
+def _array(x):
+    return None if x is None else np.asarray(getattr(x, "data", x))
+
+
+def test_noise_change_reruns_only_noise_and_later_steps(scene, camera):
+    p = Pipeline()
+    first = p.run(scene, camera, CIELAB)
+    assert first.errors == {}
+    assert first.ran_steps[:5] == ["stage:sensor_responses", "stage:resample", "stage:mosaic", "stage:noise", "stage:digitize"]
+    r = p.run(scene, camera.replace(noise_sigma=2.0), CIELAB)
+    # the ideal image is noiseless: it is not recomputed either
+    assert r.ran_steps == ["stage:noise", "stage:digitize", "demosaic", "render", "xyz", "delta_e"]
+    r = p.run(scene, camera.replace(noise_sigma=2.0, seed=5), CIELAB)
+    assert r.ran_steps == ["stage:noise", "stage:digitize", "demosaic", "render", "xyz", "delta_e"]
+
+
+def test_exposure_change_reruns_from_the_sensor_stage(scene, camera):
+    p = Pipeline()
+    p.run(scene, camera, CIELAB)
+    r = p.run(scene, camera.replace(exposure=0.12), CIELAB)
+    assert r.ran_steps == ["stage:sensor_responses", "stage:resample", "stage:mosaic", "stage:noise", "stage:digitize",
+                           "demosaic", "render", "ideal", "xyz", "ideal_xyz", "delta_e"]
+
+
+def test_mosaic_and_processing_changes_rerun_only_downstream(scene, camera):
+    p = Pipeline()
+    p.run(scene, camera, CIELAB)
+    assert p.run(scene, camera.replace(mosaic=BAYER["RGGB"]), CIELAB).ran_steps == [
+        "stage:mosaic", "stage:noise", "stage:digitize", "demosaic", "render", "xyz", "delta_e"]
+    cam = camera.replace(mosaic=BAYER["RGGB"])
+    assert p.run(scene, cam, Processing(render="illuminant", metrics=("cielab",))).ran_steps == ["render", "xyz", "delta_e"]
+    # S-CIELAB added: only the new map is computed
+    assert p.run(scene, cam, Processing(render="illuminant", metrics=("cielab", "scielab"))).ran_steps == ["scielab"]
+
+
+def test_nothing_reruns_when_nothing_changed(scene, camera):
+    p = Pipeline()
+    p.run(scene, camera, CIELAB)
+    # an equal camera built anew (equal arrays, new objects) is recognised by content
+    same = cc.load_camera("kodak-dcs200-ir").replace(distance=3.32, exposure=0.1, f_stop=11.0, noise_sigma=0.0, seed=0)
+    assert p.run(scene, same, CIELAB).ran == []
+
+
+def test_results_equal_a_fresh_full_run(scene, camera):
+    gauss4 = cc.load_camera("gaussian-4").replace(distance=3.32, exposure=0.1, f_stop=11.0)
+    sequence = [
+        (camera, CIELAB),
+        (camera.replace(noise_sigma=3.0, seed=2), CIELAB),
+        (camera.replace(noise_sigma=3.0, seed=3, bits=10), Processing(metrics=("cielab", "scielab"))),
+        (camera.replace(noise_sigma=3.0, seed=3, mosaic=BAYER["BGGR"]), Processing(render="illuminant", illuminant="gray-world")),
+        (camera.replace(noise_sigma=1.0, exposure=0.08, distance=3.0), Processing(monitor="brainard-crt")),
+        (gauss4.replace(noise_sigma=2.0), Processing(demosaic="bilinear", render="illuminant")),
+        (camera, CIELAB),
+    ]
+    p = Pipeline()
+    for cam, proc in sequence:
+        cached = p.run(scene, cam, proc)
+        fresh = Pipeline().run(scene, cam, proc)
+        assert cached.errors == fresh.errors == {}
+        for name in OUTPUTS:
+            a, b = _array(getattr(cached, name)), _array(getattr(fresh, name))
+            assert (a is None) == (b is None), name
+            if a is not None:
+                assert np.array_equal(a, b), f"{name} differs from a fresh run"
+    # the last camera equals the first: the cache did not simply return the first result by accident
+    assert cached.raw.tile is not None and np.array_equal(cached.raw.tile, BAYER["GRBG"])
+
+
+def test_shared_scene_is_not_modified(scene, camera):
+    before = fingerprint(np.asarray(scene.data))
+    p = Pipeline()
+    p.run(scene, camera.replace(noise_sigma=5.0), Processing(metrics=("cielab", "scielab")))
+    p.run(scene, camera.replace(exposure=0.2), CIELAB)
+    assert fingerprint(np.asarray(scene.data)) == before
+
+
+def test_a_refused_step_is_reported_and_its_dependents_skipped(scene, camera):
+    gauss4 = cc.load_camera("gaussian-4").replace(distance=3.32, exposure=0.1, f_stop=11.0)
+    assert np.array_equal(gauss4.mosaic, FOUR_SENSOR_GRID)
+    p = Pipeline()
+    r = p.run(scene, gauss4, Processing(demosaic="no-such-method", metrics=("cielab",)))
+    assert set(r.errors) == {"demosaic"} and "no-such-method" in r.errors["demosaic"]
+    assert r.raw is not None and r.ideal is not None
+    assert r.demosaiced is None and r.rendered is None and r.delta_e is None
+    assert not {"render", "xyz", "delta_e"} & set(r.ran_steps)
+    # the failure is not cached: the same request fails again, and a good one then succeeds
+    assert "demosaic" in p.run(scene, gauss4, Processing(demosaic="no-such-method", metrics=("cielab",))).errors
+    ok = p.run(scene, gauss4, Processing(demosaic="bilinear", metrics=("cielab",)))
+    assert ok.errors == {} and ok.delta_e is not None
+    assert ok.ran_steps == ["demosaic", "render", "xyz", "delta_e"]
+
+
+def test_fingerprint_compares_arrays_by_content():
+    a = np.arange(6.0).reshape(2, 3)
+    assert fingerprint(a) == fingerprint(a.copy())
+    b = a.copy()
+    b[1, 2] += 1e-12
+    assert fingerprint(a) != fingerprint(b)
+    assert fingerprint(a) != fingerprint(a.reshape(3, 2))
