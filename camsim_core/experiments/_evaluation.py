@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 __all__ = ["xyz_of", "monitor_white", "samples_per_degree", "mean_scielab"]
@@ -38,3 +40,21 @@ def mean_scielab(xyz, reference, samples_per_degree, white):
     from ..metrics import scielab
 
     return float(np.mean(scielab(xyz, reference, samples_per_degree, white, method="CIE 1976")))
+
+
+@lru_cache(maxsize=8)
+def monitor(name):
+    """The monitor by name or path, read once per worker process."""
+    from ..monitor import load_monitor
+
+    return load_monitor(name)
+
+
+def ideal_reference(scene_name, camera, monitor_name, distance, exposure):
+    """XYZ of the ideal image of ``camera``'s geometry, the monitor white, and samples per degree."""
+    from ..rendering import ideal_image
+    from ..scene import load_scene
+
+    mon = monitor(monitor_name)
+    ideal = ideal_image(load_scene(scene_name), camera, mon, distance=distance, exposure=exposure)
+    return xyz_of(ideal, mon), monitor_white(mon), samples_per_degree(ideal)

@@ -52,6 +52,7 @@ from .grid import (
 )
 from .results import format_mean_std, summarize as _summarize, write_csv
 from .runner import run_tasks
+from ._evaluation import ideal_reference, monitor as _monitor_named
 
 __all__ = [
     "MosaicConfig",
@@ -160,21 +161,9 @@ def configurations(scenes=("cacaphony290",), sigmas=SIGMAS, seeds=1, *, designs=
 
 
 @lru_cache(maxsize=8)
-def _monitor(name):
-    from ..monitor import load_monitor
-
-    return load_monitor(name)
-
-
-@lru_cache(maxsize=8)
 def _ideal(scene_name, distance, exposure, monitor_name):
-    from ..rendering import ideal_image
-    from ..scene import load_scene
-    from ._evaluation import monitor_white, samples_per_degree, xyz_of
-
-    monitor = _monitor(monitor_name)
-    ideal = ideal_image(load_scene(scene_name), camera(4), monitor, distance=distance, exposure=exposure)
-    return xyz_of(ideal, monitor), monitor_white(monitor), samples_per_degree(ideal)
+    """The ideal image's XYZ, white and samples per degree (cached per worker process)."""
+    return ideal_reference(scene_name, camera(4), monitor_name, distance, exposure)
 
 
 def evaluate(config):
@@ -189,7 +178,7 @@ def evaluate(config):
 
     t0 = time.perf_counter()
     scene = load_scene(config.scene)
-    monitor = _monitor(config.monitor)
+    monitor = _monitor_named(config.monitor)
     cam = camera(config.sensors, config.sigma, config.noise_seed, centers=config.centers, std_nm=config.std_nm)
     raw = simulate(scene, cam, distance=config.distance, exposure=config.exposure)
     full = demosaic(raw, method=config.demosaic)

@@ -71,6 +71,7 @@ from .grid import (
 )
 from .results import format_mean_std, summarize as _summarize, write_csv
 from .runner import run_tasks
+from ._evaluation import ideal_reference, monitor as _monitor_named
 
 __all__ = [
     "SensorsConfig",
@@ -162,24 +163,9 @@ def configurations(scenes=("cacaphony290",), alphas=ALPHAS, sigmas=SIGMAS, seeds
 
 
 @lru_cache(maxsize=8)
-def _monitor(name):
-    from ..monitor import load_monitor
-
-    return load_monitor(name)
-
-
-@lru_cache(maxsize=8)
 def _ideal(scene_name, distance, exposure, monitor_name, mosaic):
     """XYZ of the ideal image, its white point and samples per degree (cached per worker process)."""
-    from ..rendering import ideal_image
-    from ..scene import load_scene
-    from ._evaluation import monitor_white, samples_per_degree, xyz_of
-
-    scene = load_scene(scene_name)
-    monitor = _monitor(monitor_name)
-    cam = camera(0.0, mosaic=mosaic)
-    ideal = ideal_image(scene, cam, monitor, distance=distance, exposure=exposure)
-    return xyz_of(ideal, monitor), monitor_white(monitor), samples_per_degree(ideal)
+    return ideal_reference(scene_name, camera(0.0, mosaic=mosaic), monitor_name, distance, exposure)
 
 
 def evaluate(config):
@@ -195,7 +181,7 @@ def evaluate(config):
 
     t0 = time.perf_counter()
     scene = load_scene(config.scene)
-    monitor = _monitor(config.monitor)
+    monitor = _monitor_named(config.monitor)
     cam = camera(config.alpha, config.sigma, config.noise_seed, mosaic=config.mosaic)
     image = simulate(scene, cam, distance=config.distance, exposure=config.exposure)
     if config.mosaic:
