@@ -83,7 +83,8 @@ def read_scam(path):
     ay = group_numbers(t, "AngularResolution", "Y")[0]
     noise_mean = noise_sigma = 0.0
     if t.has("Noise"):
-        noise_mean = float(group_numbers(t, "Noise", "Mean", required=False)[0]) if group_numbers(t, "Noise", "Mean", required=False) is not None else 0.0
+        mean = group_numbers(t, "Noise", "Mean", required=False)
+        noise_mean = float(mean[0]) if mean is not None else 0.0
         var = group_numbers(t, "Noise", "Variance", required=False)
         noise_sigma = float(np.sqrt(var[0])) if var is not None else 0.0
     bits = None
