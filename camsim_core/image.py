@@ -28,7 +28,7 @@ import numpy as np
 from .errors import ParameterError
 from .spectra import Spectrum
 
-__all__ = ["CameraImage", "image_from_scene", "check_tile"]
+__all__ = ["CameraImage", "image_from_scene", "check_tile", "subtract_black_level"]
 
 #: What ``CameraImage.space`` may be.
 SPACES = ("spectral", "sensor", "monitor-linear", "monitor")
@@ -90,6 +90,10 @@ class CameraImage:
     noise_sigma : float
         Standard deviation (digital units) of the noise added; processing
         such as Bayesian demosaicing uses it in its likelihood.
+    black_level : float
+        Pedestal (digital units) that ``data`` still holds: every value is
+        the signal plus this offset. Processing subtracts it
+        (:func:`subtract_black_level`) and sets it to 0.
     mosaiced, quantized : bool
     illuminant : Spectrum or None
         The scene illuminant, carried along for balancing.
@@ -113,6 +117,7 @@ class CameraImage:
     bits: int | None = None
     gain: float = 1.0
     noise_sigma: float = 0.0
+    black_level: float = 0.0
     mosaiced: bool = False
     quantized: bool = False
     illuminant: Spectrum | None = None
@@ -170,6 +175,7 @@ class CameraImage:
             "bits": self.bits,
             "gain": self.gain,
             "noise_sigma": self.noise_sigma,
+            "black_level": self.black_level,
             "mosaiced": self.mosaiced,
             "quantized": self.quantized,
             "illuminant": None
@@ -177,6 +183,21 @@ class CameraImage:
             else {"wavelengths": self.illuminant.wavelengths.tolist(), "values": self.illuminant.values.tolist()},
             "history": list(self.history),
         }
+
+
+def subtract_black_level(image):
+    """The image without its pedestal: ``max(data - black_level, 0)``, ``black_level`` 0.
+
+    What a raw converter does first (dcraw, for example, subtracts the black
+    level and clips at zero before demosaicing): the result is what a camera
+    with no pedestal would have recorded, values that quantization clipped
+    at 0 included. An image without a pedestal is returned as it is.
+    """
+    black = float(image.black_level)
+    if black == 0.0:
+        return image
+    data = np.clip(np.asarray(image.data, float) - black, 0.0, None)
+    return image.replace(data=data, black_level=0.0, history=image.history + ("subtract_black_level",))
 
 
 def image_from_scene(scene):

@@ -185,7 +185,7 @@ def test_raw_from_array_bad_input(tmp_path):
 def test_raw_black_level_and_bits():
     raw = cs.raw_from_array(np.array([[20, 30], [40, 10]], np.uint8), "GRBG", black_level=15)
     assert raw.bits == 8 and raw.quantized
-    assert np.array_equal(raw.data, [[5, 15], [25, 0]])
+    assert raw.black_level == 15.0 and np.array_equal(raw.data, [[20, 30], [40, 10]])
     with pytest.raises(ParameterError, match="black_level"):
         cs.raw_from_array(np.zeros((2, 2)), "GRBG", black_level=-1)
 

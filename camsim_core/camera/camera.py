@@ -59,6 +59,13 @@ class Camera:
         photon shot noise plus Gaussian read noise for quantal sensors.
     noise_mean, noise_sigma : float
         Digital units. ``noise_sigma == 0`` switches the noise stage off.
+    black_level : float
+        Digital units, >= 0 (default 0). The sensor's pedestal (the dark
+        offset that a real camera's electronics add so that noise around
+        black is not clipped): added to every pixel by the ``digitize`` stage
+        before quantization, carried in the image's ``black_level``, and
+        subtracted by processing (``demosaic``, ``render``) as a raw
+        converter does. The Kodak DCS-200's real raws read about 15 DU.
     read_noise : float
         Electrons (photon model).
     electrons_per_dn : float
@@ -94,6 +101,7 @@ class Camera:
     noise_model: str = "gaussian"
     noise_mean: float = 0.0
     noise_sigma: float = 0.0
+    black_level: float = 0.0
     read_noise: float = 0.0
     electrons_per_dn: float = 1.0
     bits: int | None = 8
@@ -127,6 +135,10 @@ class Camera:
             v = getattr(self, field_name)
             if not (np.isfinite(v) and v >= 0):
                 raise ParameterError(field_name, f"must be a non-negative number, got {v!r}")
+        bl = self.black_level
+        if isinstance(bl, bool) or not isinstance(bl, (int, float, np.floating, np.integer)) or not (np.isfinite(bl) and bl >= 0):
+            raise ParameterError("black_level", f"must be a finite number of digital units >= 0, got {bl!r}")
+        object.__setattr__(self, "black_level", float(bl))
         if not np.isfinite(self.noise_mean):
             raise ParameterError("noise_mean", f"must be finite, got {self.noise_mean!r}")
         if self.noise_model == "photon" and self.sensors.unit != "Quanta":
@@ -176,6 +188,7 @@ class Camera:
             "f_stop": self.f_stop,
             "distance_m": self.distance,
             "noise": {"model": self.noise_model, "mean": self.noise_mean, "sigma": self.noise_sigma},
+            "black_level_du": self.black_level,
             "bits": self.bits,
             "architecture": [getattr(s, "__name__", repr(s)) for s in self.architecture],
             "comments": self.comments,

@@ -23,6 +23,8 @@ def register(subparsers):
     p.add_argument("--f-stop", type=float, dest="f_stop", help="f-number")
     p.add_argument("--auto-exposure", action="store_true", help="choose the exposure that puts the bright end at 90%% of full scale")
     p.add_argument("--noise-sigma", type=float, dest="noise_sigma", help="Gaussian noise sigma, digital units")
+    p.add_argument("--black-level", type=float, dest="black_level",
+                   help="sensor pedestal added before quantization, digital units (default: the camera's, 0 for the shipped ones)")
     p.add_argument("--bits", type=int, help="quantization depth, 1-32")
     p.add_argument("--unquantized", action="store_true", help="no digitization (float output, write .npy)")
     p.add_argument("--no-mosaic", action="store_true", help="simulate a full-colour (non-mosaiced) camera")
@@ -49,6 +51,8 @@ def run(args):
     changes = {}
     if args.noise_sigma is not None:
         changes["noise_sigma"] = args.noise_sigma
+    if args.black_level is not None:
+        changes["black_level"] = args.black_level
     if args.bits is not None:
         changes["bits"] = args.bits
     if args.unquantized:

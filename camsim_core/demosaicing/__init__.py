@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ParameterError
+from ..image import subtract_black_level
 from ._masks import check_mosaiced
 
 __all__ = ["demosaic", "METHODS"]
@@ -65,7 +66,9 @@ def demosaic(image, method="bilinear", **options):
     Parameters
     ----------
     image : CameraImage
-        Mosaiced (``image.mosaiced`` and a ``tile``), in digital units.
+        Mosaiced (``image.mosaiced`` and a ``tile``), in digital units. Its
+        ``black_level`` (pedestal) is subtracted first, values clipped at 0,
+        as a raw converter does; the result has ``black_level`` 0.
     method : str
         One of :data:`METHODS`.
     **options
@@ -81,6 +84,7 @@ def demosaic(image, method="bilinear", **options):
     if key not in METHODS:
         raise ParameterError("method", f"unknown demosaicing method {method!r}; valid: {', '.join(METHODS)}")
     check_mosaiced(image, key)
+    image = subtract_black_level(image)
     out = METHODS[key](image, **options)
     extra = dict(image.extra)
     extra["demosaic"] = key

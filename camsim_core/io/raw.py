@@ -47,8 +47,10 @@ def raw_from_array(array, tile, *, sensitivities=None, wavelengths=None, sensor_
     illuminant : Spectrum, optional
         The scene illuminant, if known, for illuminant-based rendering.
     black_level : float
-        Dark offset (digital units) subtracted from every value (clipped at 0);
-        a real raw's pedestal would otherwise render as a coloured cast.
+        The raw's pedestal, digital units (>= 0): carried in the image's
+        ``black_level`` and subtracted by processing (``demosaic``, ``render``,
+        values clipped at 0) as a raw converter does; the data keep it. A
+        real raw's pedestal left in would render as a coloured cast.
     **metadata
         Any of ``exposure`` (s), ``f_stop``, ``distance`` (m),
         ``angular_resolution`` (x, y px/deg), ``gain`` (digital units per unit
@@ -94,12 +96,13 @@ def raw_from_array(array, tile, *, sensitivities=None, wavelengths=None, sensor_
     fields.update(metadata)
     if "angular_resolution" in fields:
         fields["angular_resolution"] = tuple(fields["angular_resolution"])
-    black = float(black_level)
+    try:
+        black = float(black_level)
+    except (TypeError, ValueError):
+        black = float("nan")
     if not np.isfinite(black) or black < 0:
         raise ParameterError("black_level", f"must be a finite number >= 0, got {black_level}")
     data = a.astype(float)
-    if black:
-        data = np.clip(data - black, 0.0, None)
     return CameraImage(
         data=data,
         wavelengths=np.zeros(0) if wls is None else wls,
@@ -107,6 +110,7 @@ def raw_from_array(array, tile, *, sensitivities=None, wavelengths=None, sensor_
         sensor_names=tuple(sensor_names),
         tile=t,
         bits=bits,
+        black_level=black,
         mosaiced=True,
         quantized=bits is not None and np.issubdtype(a.dtype, np.integer),
         illuminant=illuminant,

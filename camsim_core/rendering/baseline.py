@@ -32,20 +32,25 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ParameterError
+from ..image import subtract_black_level
 from ._linear import apply_matrix, cones, per_band, solve_matrix
 
 __all__ = ["baseline_matrix", "display_scale", "to_frame_buffer", "check_renderable"]
 
 
 def check_renderable(image):
-    """The sensor planes (H, W, K) in units of sensitivities @ radiance (gain divided out)."""
+    """The sensor planes (H, W, K) in units of sensitivities @ radiance (gain divided out).
+
+    A pedestal the image still carries (``black_level``, e.g. a full-colour
+    camera's, which no demosaicing removed) is subtracted first.
+    """
     if image.space != "sensor":
         raise ParameterError("render", f"needs sensor planes, the image is in {image.space!r} space")
     if image.mosaiced:
         raise ParameterError("render", "the image is still mosaiced: demosaic it first (camsim_core.demosaic)")
     if image.sensitivities is None or np.size(image.wavelengths) == 0:
         raise ParameterError("render", "the image carries no sensor sensitivities (give raw_from_array sensitivities=...)")
-    data = np.asarray(image.data, float)
+    data = np.asarray(subtract_black_level(image).data, float)
     if data.ndim != 3 or data.shape[2] != image.n_sensors:
         raise ParameterError("render", f"expected (H, W, {image.n_sensors}) sensor planes, got {data.shape}")
     if not image.gain > 0:

@@ -15,7 +15,7 @@ __all__ = ["ideal_camera", "ideal_image"]
 
 
 def ideal_camera(camera):
-    """The ideal (cone, non-mosaiced, noiseless, linear) counterpart of ``camera``."""
+    """The ideal (cone, non-mosaiced, noiseless, pedestal-free, linear) counterpart of ``camera``."""
     cam = load_camera(camera)
     cones = camera_preset("human-cones").sensors
     return cam.replace(
@@ -25,6 +25,7 @@ def ideal_camera(camera):
         noise_model="gaussian",
         noise_mean=0.0,
         noise_sigma=0.0,
+        black_level=0.0,
         read_noise=0.0,
         nonlinearity=None,
         bits=cam.bits if cam.bits is not None else 8,

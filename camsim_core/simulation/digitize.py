@@ -24,17 +24,29 @@ def apply_nonlinearity(values, full_scale, nonlinearity):
     return y * full_scale
 
 
-@stage("bits", "nonlinearity")
+@stage("bits", "nonlinearity", "black_level")
 def digitize(camera, image):
-    """Round and clip to [0, 2**bits - 1], after the static non-linearity if any.
+    """Add the pedestal, round and clip to [0, 2**bits - 1], after the static non-linearity if any.
 
-    ``bits=None``: no quantization, the image passes unchanged.
+    The pedestal ``camera.black_level`` (DU) is added after the
+    non-linearity and before rounding, as a sensor's electronic dark offset
+    that the analogue-to-digital converter then sees: negative noise
+    excursions around black survive down to ``-black_level``, and the
+    headroom above the signal shrinks by the same amount. The output image
+    carries ``black_level`` so that processing can subtract it.
+
+    ``bits=None``: no quantization; only the pedestal (if any) is added.
     """
+    black = float(camera.black_level)
     if camera.bits is None:
-        return image
+        if black == 0.0:
+            return image
+        return image.then("digitize", data=np.asarray(image.data, float) + black, black_level=image.black_level + black)
     full = float(2 ** camera.bits - 1)
     data = np.asarray(image.data, float)
     if camera.nonlinearity is not None:
         data = apply_nonlinearity(data, full, camera.nonlinearity)
+    if black:
+        data = data + black
     out = np.clip(np.rint(data), 0.0, full)
-    return image.then("digitize", data=out, bits=camera.bits, quantized=True)
+    return image.then("digitize", data=out, bits=camera.bits, quantized=True, black_level=image.black_level + black)
