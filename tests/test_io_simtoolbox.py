@@ -54,8 +54,8 @@ def test_bfgb_means_times_factors_track_the_spectroradiometer():
         assert r >= 0.998
 
 
-def test_dcs200_camera_file(dcs200_ir):
-    c = dcs200_ir
+def test_dcs200_camera_file():
+    c = cs.load_camera(SIMTOOLBOX / "cameras" / "kodakdcs200_50mmIR.Scam")
     assert c.sensors.values.shape == (3, 81)
     np.testing.assert_array_equal(c.mosaic, [[1, 0], [2, 1]])  # '2 1 3 2' row by row, 1-based -> G R / B G
     assert c.angular_resolution == (102.6, 102.6)
@@ -110,3 +110,94 @@ def test_camera_file_with_wrong_matrix_size(tmp_path):
     p.write_bytes(src.replace("#SimNumberSensors\r3", "#SimNumberSensors\r4").encode("latin-1"))
     with pytest.raises(cs.FileFormatError, match=r"bad.Scam.*expected 4 x 81"):
         cs.load_camera(p)
+
+
+# --- #Sim#Alg: the stages a .Scam file lists ------------------------------------------------
+
+SIM = cs.simulation
+
+
+def test_dcs200_file_lists_no_noise_stage():
+    """kodakdcs200_50mmIR.Scam: SimWeightRawImages, SimReSample, SimMosaic, SimQuantize - no SimNoise."""
+    c = cs.load_camera(SIMTOOLBOX / "cameras" / "kodakdcs200_50mmIR.Scam")
+    assert c.architecture == (SIM.sensor_responses, SIM.resample, SIM.mosaic, SIM.digitize)
+    assert SIM.noise not in c.architecture
+    # gaussianIID in digital units: read, but no stage applies it
+    assert c.noise_model == "gaussian" and c.noise_mean == pytest.approx(0.05)
+    scene = cs.load_scene("cacaphony290")
+    a = cs.simulate(scene, c, distance=3.32, exposure=0.1, f_stop=11, seed=1)
+    b = cs.simulate(scene, c, distance=3.32, exposure=0.1, f_stop=11, seed=2)
+    np.testing.assert_array_equal(a.data, b.data)  # no noise: the seed changes nothing
+    assert "noise" not in a.history
+
+
+def test_quantal_file_gets_its_three_stages():
+    """quantal_50mm.Scam lists SimWeightRawImages, SimReSample, SimMosaic: no noise, no quantization."""
+    c = cs.load_camera(SIMTOOLBOX / "cameras" / "quantal_50mm.Scam")
+    assert c.architecture == (SIM.sensor_responses, SIM.resample, SIM.mosaic)
+    scene = cs.load_scene("cacaphony290")
+    img = cs.simulate(scene, c, distance=3.32)
+    assert img.history == ("scene", "sensor_responses", "resample", "mosaic")
+    assert not img.quantized and img.mosaiced
+    assert np.any(img.data != np.rint(img.data))  # left unquantized
+
+
+def test_presets_keep_the_five_stages_so_noise_can_be_switched_on(dcs200_ir):
+    assert dcs200_ir.architecture == SIM.DEFAULT_ARCHITECTURE
+    assert dcs200_ir.noise_sigma == 0.0 and dcs200_ir.noise_mean == 0.0  # noiseless, as the file's stage list
+
+
+def _edited(tmp_path, name, *changes):
+    """The DCS-200 IR file with (old, new) text replacements (its lines end in CR)."""
+    src = (SIMTOOLBOX / "cameras" / "kodakdcs200_50mmIR.Scam").read_bytes().decode("latin-1")
+    for old, new in changes:
+        assert old in src
+        src = src.replace(old, new)
+    p = tmp_path / name
+    p.write_bytes(src.encode("latin-1"))
+    return p
+
+
+_ADD_NOISE = ("#Sim#Alg SimQuantize", "#Sim#Alg SimNoise\r#Sim#Alg SimQuantize")
+
+
+def _flat(level=0.01, n=300):
+    return cs.scene.Scene(np.full((n, n, 31), level), np.arange(400, 701, 10.0), distance=3.0,
+                          angular_resolution=(102.6, 102.6))
+
+
+def test_listed_noise_stage_adds_gaussian_iid_noise_in_digital_units(tmp_path):
+    p = _edited(tmp_path, "noisy.Scam", _ADD_NOISE, ("##SimVariance\r0.01", "##SimVariance\r25"))
+    c = cs.load_camera(p)
+    assert c.architecture == (SIM.sensor_responses, SIM.resample, SIM.mosaic, SIM.noise, SIM.digitize)
+    assert c.noise_sigma == pytest.approx(5.0) and c.noise_mean == pytest.approx(0.05)
+    c = c.replace(bits=None)
+    clean = cs.simulate(_flat(), c.replace(noise_sigma=0.0, noise_mean=0.0)).data
+    noisy = cs.simulate(_flat(), c).data
+    assert np.std(noisy - clean) == pytest.approx(5.0, rel=0.03)  # variance 25 DU^2
+    assert np.mean(noisy - clean) == pytest.approx(0.05, abs=0.05)
+
+
+def test_gaussian_iid_percent_is_in_fractions_of_the_image_range(tmp_path):
+    p = _edited(tmp_path, "pct.Scam", ("#Sim#Alg SimQuantize", "#Sim#Alg SimNoise"),
+                ("##SimType\rgaussianIID", "##SimType\rgaussianIIDpercent"), ("##SimMean\r0.05", "##SimMean\r0"))
+    c = cs.load_camera(p)
+    assert c.noise_model == "gaussian-range" and c.noise_sigma == pytest.approx(0.1)
+    ramp = np.linspace(0.0, 0.02, 200)[None, :, None] * np.ones((200, 1, 31))
+    scene = cs.scene.Scene(ramp, np.arange(400, 701, 10.0), distance=3.0, angular_resolution=(102.6, 102.6))
+    cam = c.replace(mosaic=None)
+    clean = cs.simulate(scene, cam.replace(noise_sigma=0.0)).data
+    noisy = cs.simulate(scene, cam).data
+    span = clean.max() - clean.min()
+    mid = (clean > clean.min() + 0.3 * span) & (clean < clean.max() - 0.3 * span)  # away from the clipped ends
+    assert np.std((noisy - clean)[mid]) == pytest.approx(0.1 * span, rel=0.05)
+    assert noisy.min() >= clean.min() - 1e-9 and noisy.max() <= clean.max() + 1e-9  # clipped to the range
+
+
+def test_unknown_stage_or_noise_type_names_the_file(tmp_path):
+    p = _edited(tmp_path, "odd.Scam", ("#Sim#Alg SimQuantize", "#Sim#Alg SimToneMap"))
+    with pytest.raises(cs.FileFormatError, match=r"odd.Scam.*SimToneMap"):
+        cs.load_camera(p)
+    q = _edited(tmp_path, "odd2.Scam", ("##SimType\rgaussianIID", "##SimType\rpoisson"))
+    with pytest.raises(cs.FileFormatError, match=r"odd2.Scam.*poisson"):
+        cs.load_camera(q)

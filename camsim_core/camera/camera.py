@@ -25,7 +25,7 @@ from ..spectra import Spectrum
 
 __all__ = ["Camera", "NOISE_MODELS"]
 
-NOISE_MODELS = ("gaussian", "photon")
+NOISE_MODELS = ("gaussian", "photon", "gaussian-range")
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,11 +54,15 @@ class Camera:
         Conditions of the simulated picture.
     distance : float or None
         m from the scene; ``None`` keeps the scene's own distance.
-    noise_model : "gaussian" or "photon"
-        Additive Gaussian noise in digital units (the chapter's model), or
-        photon shot noise plus Gaussian read noise for quantal sensors.
+    noise_model : "gaussian", "photon" or "gaussian-range"
+        Additive Gaussian noise in digital units (the chapter's model, the
+        original's ``gaussianIID``), photon shot noise plus Gaussian read
+        noise for quantal sensors, or Gaussian noise in fractions of the
+        image's range (the original's ``gaussianIIDpercent``; see
+        :func:`~camsim_core.simulation.noise.noise`).
     noise_mean, noise_sigma : float
-        Digital units. ``noise_sigma == 0`` switches the noise stage off.
+        Digital units (fractions of the image's range for
+        "gaussian-range"). ``noise_sigma == 0`` switches the noise stage off.
     black_level : float
         Digital units, >= 0 (default 0). The sensor's pedestal (the dark
         offset that a real camera's electronics add so that noise around

@@ -20,7 +20,7 @@ from ..datasets.sensors import (
 )
 from ..errors import FileFormatError
 from ..io.simtoolbox import group_numbers, read_tagged
-from ..simulation import DEFAULT_ARCHITECTURE, FOUR_SENSOR_GRID, bayer
+from ..simulation import DEFAULT_ARCHITECTURE, FOUR_SENSOR_GRID, bayer, digitize, mosaic, noise, optical_blur, resample, sensor_responses
 from ..spectra import sampling_wavelengths
 from .camera import Camera
 
@@ -36,18 +36,71 @@ CAMERA_NAMES = (
     "gaussian-4",
 )
 
-_ALG = {"simweightrawimages": "sensor_responses", "simresample": "resample", "simmosaic": "mosaic",
-        "simnoise": "noise", "simaddnoise": "noise", "simquantize": "digitize", "simblur": "optical_blur"}
+#: The original simulator's stage functions (``#Sim#Alg`` names, case-insensitive) and camsim's
+#: stage for each; ``None``: a placeholder that passes the image through.
+_ALG = {
+    "simweightrawimages": sensor_responses,
+    "simresample": resample,
+    "simmosaic": mosaic,
+    "simnoise": noise,
+    "simquantize": digitize,
+    "simopticalblur": optical_blur,
+    "simdonothingonimage": None,
+}
+
+#: ``##SimNoise ##SimType`` of the original and camsim's noise model for it.
+_NOISE_TYPES = {"gaussianiid": "gaussian", "gaussianiidpercent": "gaussian-range"}
+
+
+def _architecture(path, algs):
+    """The stages a ``.Scam`` file lists in ``#Sim#Alg``, in its order; the chapter's five when it lists none."""
+    if not algs:
+        return DEFAULT_ARCHITECTURE
+    stages = []
+    for a in algs:
+        key = a.strip().lower()
+        if key not in _ALG:
+            raise FileFormatError(
+                path,
+                f"#Sim#Alg names the stage {a!r}, which camsim does not know; known: "
+                + ", ".join(sorted({"SimWeightRawImages", "SimReSample", "SimMosaic", "SimNoise", "SimQuantize",
+                                    "SimOpticalBlur", "SimDoNothingOnImage"})),
+            )
+        if _ALG[key] is not None:
+            stages.append(_ALG[key])
+    if not stages:
+        raise FileFormatError(path, "#Sim#Alg lists no stage that does anything")
+    return tuple(stages)
 
 
 def read_scam(path):
     """Read a SimToolbox ``.Scam`` camera file.
 
     Mosaic indices are 1-based in the file (``##SimMosaic``, row by row) and
-    0-based here. Noise ``##SimVariance`` becomes ``noise_sigma =
-    sqrt(variance)``. The architecture is the chapter's five stages (a
-    superset of every ``#Sim#Alg`` list shipped: a stage whose parameters
-    switch it off does nothing); the file's own list is kept in ``comments``.
+    0-based here.
+
+    Stages: the camera's ``architecture`` is the list of ``#Sim#Alg`` lines,
+    in the file's order, as the original's ``SimSimulateCamera`` calls them:
+    ``SimWeightRawImages`` -> ``sensor_responses``, ``SimReSample`` ->
+    ``resample``, ``SimMosaic`` -> ``mosaic``, ``SimNoise`` -> ``noise``,
+    ``SimQuantize`` -> ``digitize``, ``SimOpticalBlur`` -> ``optical_blur``
+    (``blur_sigma`` 0 here: the original's blur was a placeholder), and
+    ``SimDoNothingOnImage`` is dropped. Any other name is refused
+    (:class:`FileFormatError` naming the file). A file with no ``#Sim#Alg``
+    gets the chapter's five stages. So the shipped DCS-200 files, which list
+    no noise stage, give noiseless cameras, and ``quantal_50mm.Scam`` (no
+    ``SimQuantize``) an unquantized one: the ``##SimNoise`` and
+    ``##SimQuantize`` parameters are still read into the camera, but only
+    a listed stage applies them.
+
+    Noise (``##SimNoise``), in the original's units: ``gaussianIID`` adds
+    ``Mean + sqrt(Variance) * randn`` in digital units (``noise_model
+    "gaussian"``, ``noise_mean = Mean``, ``noise_sigma = sqrt(Variance)``,
+    e.g. 0.05 and 0.1 DU in the DCS-200 files); ``gaussianIIDpercent`` adds
+    it in fractions of the image's own range, clipped to that range
+    (``noise_model "gaussian-range"``). Another type is refused.
+
+    The black level (``black_level``) is 0: no SimToolbox file has one.
     """
     path = Path(path)
     t = read_tagged(path)
@@ -82,7 +135,13 @@ def read_scam(path):
     ax = group_numbers(t, "AngularResolution", "X")[0]
     ay = group_numbers(t, "AngularResolution", "Y")[0]
     noise_mean = noise_sigma = 0.0
+    noise_model = "gaussian"
     if t.has("Noise"):
+        group = t.get_tag("Noise")
+        kind = " ".join(group.get("Type", ["gaussianIID"])).strip() if isinstance(group, dict) else "gaussianIID"
+        if kind.lower() not in _NOISE_TYPES:
+            raise FileFormatError(path, f"##SimNoise ##SimType {kind!r} is not a noise type camsim knows (gaussianIID, gaussianIIDpercent)")
+        noise_model = _NOISE_TYPES[kind.lower()]
         mean = group_numbers(t, "Noise", "Mean", required=False)
         noise_mean = float(mean[0]) if mean is not None else 0.0
         var = group_numbers(t, "Noise", "Variance", required=False)
@@ -93,10 +152,9 @@ def read_scam(path):
         bits = int(b[0]) if b is not None else None
     ph = t.number("PixelHeight", 9e-6)
     pw = t.number("PixelWidth", 9e-6)
-    algs = [a for a in t.get_tag("Alg", []) if a]
+    algs = [a for a in t.get_tag("Alg", []) if a and a.strip()]
+    architecture = _architecture(path, algs)
     comments = t.text("Comments")
-    if algs:
-        comments = (comments + "\n" if comments else "") + "file's stages: " + ", ".join(_ALG.get(a.lower(), a) for a in algs)
     try:
         return Camera(
             sensors=sensors,
@@ -111,11 +169,12 @@ def read_scam(path):
             cal_f_stop=t.number("CalFStop", 5.6),
             exposure=t.number("CalExposureTime", 1.0),
             f_stop=t.number("CalFStop", 5.6),
+            noise_model=noise_model,
             noise_mean=noise_mean,
             noise_sigma=noise_sigma,
             bits=bits,
             seed=0,
-            architecture=DEFAULT_ARCHITECTURE,
+            architecture=architecture,
             comments=comments,
         )
     except ValueError as exc:
@@ -123,14 +182,20 @@ def read_scam(path):
 
 
 def _dcs200_geometry(ir=True):
-    return read_scam(SIMTOOLBOX / "cameras" / ("kodakdcs200_50mmIR.Scam" if ir else "kodakdcs200_50mm.Scam"))
+    """The DCS-200 file's camera with the chapter's five stages, noiseless as the file's stage list makes it."""
+    cam = read_scam(SIMTOOLBOX / "cameras" / ("kodakdcs200_50mmIR.Scam" if ir else "kodakdcs200_50mm.Scam"))
+    return cam.replace(architecture=DEFAULT_ARCHITECTURE, noise_mean=0.0, noise_sigma=0.0)
 
 
 def camera_preset(name, **changes):
     """A shipped camera by name (see ``CAMERA_NAMES``), with optional field ``changes``.
 
     Every preset has the Kodak DCS-200's geometry (50 mm lens, 102.6 px/deg,
-    1012 x 1524 pixels, f/5.6 and 1 s calibration), 8 bits and seed 0.
+    1012 x 1524 pixels, f/5.6 and 1 s calibration), 8 bits, seed 0, black
+    level 0, and the chapter's five stages (so that ``noise_sigma=`` switches
+    noise on); it is noiseless, as the DCS-200 file, which lists no noise
+    stage, makes the camera it describes (``load_camera`` of the ``.Scam``
+    path gives exactly the file's stages).
     ``human-cones`` are Smith-Pokorny cones and ``cie1931`` the CIE 1931
     functions, not mosaiced and noiseless, brought to the DCS-200's scale
     (see :func:`~camsim_core.datasets.sensors.common_scale`; XYZ with one

@@ -20,11 +20,20 @@ def noise(camera, image):
       ``read_noise`` electrons is added, and the result is converted back to
       digital units; ``noise_mean`` is added as an offset.
 
+    * "gaussian-range" (SimToolbox's ``gaussianIIDpercent``): the image is
+      scaled so that its own minimum and maximum map to 0 and 1, Gaussian
+      noise of mean ``noise_mean`` and standard deviation ``noise_sigma``
+      (fractions of that range) is added, the result clipped to [0, 1] (as
+      MATLAB's ``imnoise`` does) and scaled back. The noise in digital units
+      thus depends on the image's range.
+
     ``noise_sigma == 0`` (and, for the photon model, ``read_noise == 0``
     with no shot noise wanted) means a noiseless camera: the stage does nothing.
     """
     rng = np.random.default_rng(camera.seed)
     data = np.asarray(image.data, float)
+    if camera.noise_model == "gaussian-range":
+        return _range_noise(camera, image, data, rng)
     if camera.noise_model == "photon":
         electrons = np.clip(data, 0, None) * camera.electrons_per_dn
         noisy = rng.poisson(electrons).astype(float)
@@ -37,3 +46,14 @@ def noise(camera, image):
         return image
     out = data + camera.noise_mean + rng.normal(0.0, camera.noise_sigma, size=data.shape)
     return image.then("noise", data=out, noise_sigma=float(np.hypot(image.noise_sigma, camera.noise_sigma)))
+
+
+def _range_noise(camera, image, data, rng):
+    """Noise in fractions of the image's own range, clipped to that range (``gaussianIIDpercent``)."""
+    lo, hi = float(np.min(data)), float(np.max(data))
+    span = hi - lo
+    if span <= 0 or (camera.noise_sigma == 0 and camera.noise_mean == 0):
+        return image
+    x = (data - lo) / span + camera.noise_mean + rng.normal(0.0, camera.noise_sigma, size=data.shape)
+    out = np.clip(x, 0.0, 1.0) * span + lo
+    return image.then("noise", data=out, noise_sigma=float(np.hypot(image.noise_sigma, camera.noise_sigma * span)))
