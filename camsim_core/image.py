@@ -90,10 +90,11 @@ class CameraImage:
     noise_sigma : float
         Standard deviation (digital units) of the noise added; processing
         such as Bayesian demosaicing uses it in its likelihood.
-    black_level : float
+    black_level : float or tuple of float
         Pedestal (digital units) that ``data`` still holds: every value is
-        the signal plus this offset. Processing subtracts it
-        (:func:`subtract_black_level`) and sets it to 0.
+        the signal plus this offset; one value for every sensor class, or one
+        per sensor class (a real raw's per-channel black levels). Processing
+        subtracts it (:func:`subtract_black_level`) and sets it to 0.
     mosaiced, quantized : bool
     illuminant : Spectrum or None
         The scene illuminant, carried along for balancing.
@@ -117,7 +118,7 @@ class CameraImage:
     bits: int | None = None
     gain: float = 1.0
     noise_sigma: float = 0.0
-    black_level: float = 0.0
+    black_level: float | tuple = 0.0
     mosaiced: bool = False
     quantized: bool = False
     illuminant: Spectrum | None = None
@@ -175,7 +176,7 @@ class CameraImage:
             "bits": self.bits,
             "gain": self.gain,
             "noise_sigma": self.noise_sigma,
-            "black_level": self.black_level,
+            "black_level": self.black_level if np.isscalar(self.black_level) else list(self.black_level),
             "mosaiced": self.mosaiced,
             "quantized": self.quantized,
             "illuminant": None
@@ -193,10 +194,19 @@ def subtract_black_level(image):
     with no pedestal would have recorded, values that quantization clipped
     at 0 included. An image without a pedestal is returned as it is.
     """
-    black = float(image.black_level)
-    if black == 0.0:
+    black = np.asarray(image.black_level, float)
+    if not np.any(black):
         return image
-    data = np.clip(np.asarray(image.data, float) - black, 0.0, None)
+    data = np.asarray(image.data, float)
+    if black.ndim:  # one per sensor class
+        if image.mosaiced and image.tile is not None:
+            from .simulation.mosaic import tile_index_map
+
+            black = black[tile_index_map(image.tile, data.shape[:2])]
+            black = black if black.shape == data.shape else black.reshape(data.shape)
+        elif data.ndim != 3 or data.shape[2] != black.size:
+            raise ParameterError("black_level", f"{black.size} per-class values for an image of shape {data.shape}")
+    data = np.clip(data - black, 0.0, None)
     return image.replace(data=data, black_level=0.0, history=image.history + ("subtract_black_level",))
 
 

@@ -29,6 +29,17 @@ def _tile(tile, k):
     return check_tile(tile, k if k else int(np.max(tile)) + 1, "tile")
 
 
+def _black_level(value, k):
+    """A validated black level: one float, or a tuple of ``k`` (one per sensor class)."""
+    try:
+        b = np.asarray(value, float)
+    except (TypeError, ValueError):
+        b = np.array(np.nan)
+    if b.ndim > 1 or (b.ndim == 1 and b.size != k) or not np.all(np.isfinite(b)) or np.any(b < 0):
+        raise ParameterError("black_level", f"must be a finite number >= 0 of digital units, or {k} of them (one per sensor class); got {value!r}")
+    return float(b) if b.ndim == 0 else tuple(float(v) for v in b)
+
+
 def raw_from_array(array, tile, *, sensitivities=None, wavelengths=None, sensor_names=None, bits="auto",
                    illuminant=None, black_level=0.0, **metadata):
     """A mosaiced :class:`~camsim_core.image.CameraImage` from a raw array.
@@ -46,7 +57,7 @@ def raw_from_array(array, tile, *, sensitivities=None, wavelengths=None, sensor_
         "auto": 8 for uint8 data, 16 for uint16, else None (unquantized).
     illuminant : Spectrum, optional
         The scene illuminant, if known, for illuminant-based rendering.
-    black_level : float
+    black_level : float, or one float per sensor class
         The raw's pedestal, digital units (>= 0): carried in the image's
         ``black_level`` and subtracted by processing (``demosaic``, ``render``,
         values clipped at 0) as a raw converter does; the data keep it. A
@@ -96,12 +107,7 @@ def raw_from_array(array, tile, *, sensitivities=None, wavelengths=None, sensor_
     fields.update(metadata)
     if "angular_resolution" in fields:
         fields["angular_resolution"] = tuple(fields["angular_resolution"])
-    try:
-        black = float(black_level)
-    except (TypeError, ValueError):
-        black = float("nan")
-    if not np.isfinite(black) or black < 0:
-        raise ParameterError("black_level", f"must be a finite number >= 0, got {black_level}")
+    black = _black_level(black_level, k)
     data = a.astype(float)
     return CameraImage(
         data=data,
