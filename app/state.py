@@ -46,7 +46,7 @@ GAUSSIAN_DEFAULTS = {"gaussian-3": ("640, 520, 460", "27"), "gaussian-4": ("460,
 URL_PARAMETERS = (
     "scene", "camera", "alpha", "gaussian_centers", "gaussian_widths", "mosaic", "custom_tile",
     "distance", "exposure", "f_stop", "noise_sigma", "bits", "seed",
-    "demosaic_method", "render_method", "illuminant", "monitor", "metric", "wavelength",
+    "demosaic_method", "render_method", "illuminant", "monitor", "metric", "viewing", "wavelength",
 )
 
 
@@ -154,6 +154,11 @@ class ExplorerState(param.Parameterized):
     illuminant = param.Selector(default="known", objects=list(ILLUMINANT_CHOICES))
     monitor = param.Selector(default="simtoolbox-test", objects=list(cc.MONITOR_NAMES))
     metric = param.Selector(default="CIELAB", objects=list(METRIC_CHOICES), doc="Error map and histogram shown")
+    viewing = param.String(
+        default="camera",
+        doc="How the rendered image is viewed, which fixes S-CIELAB's samples per degree: 'camera' (the chapter's, "
+        "the camera's angular resolution), 'camera/10' (the original's example), 'spd:S', 'display:PITCHmm@DISTANCEm'",
+    )
     # outputs (not user parameters)
     result = param.Parameter(default=None, precedence=-1, doc="Last good pipeline result")
     message = param.String(default="", precedence=-1, doc="Last problem, for the page's alert")
@@ -219,6 +224,7 @@ class ExplorerState(param.Parameterized):
             illuminant=None if self.illuminant == "known" else self.illuminant,
             monitor=self.monitor,
             metrics=("cielab",) if self.metric == "CIELAB" else ("cielab", "scielab"),
+            viewing=self.viewing,
         )
 
     # -- running -------------------------------------------------------------

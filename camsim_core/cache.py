@@ -69,6 +69,11 @@ class Processing:
         A shipped monitor name (:data:`camsim_core.MONITOR_NAMES`).
     metrics : tuple of str
         Which error maps to compute: "cielab" and/or "scielab".
+    viewing : str
+        How the rendered image is viewed, which fixes S-CIELAB's samples per
+        degree (:func:`camsim_core.metrics.parse_viewing`): "camera" (the
+        chapter's: the camera's angular resolution), "camera/10" (the
+        original's example), "spd:S", "display:PITCHmm@DISTANCEm".
     """
 
     demosaic: str = "bilinear"
@@ -76,6 +81,7 @@ class Processing:
     illuminant: str | None = None
     monitor: str = "simtoolbox-test"
     metrics: tuple = ("cielab", "scielab")
+    viewing: str = "camera"
 
 
 @dataclass
@@ -98,6 +104,7 @@ class Result:
     ideal_xyz: object = None
     delta_e: object = None
     scielab: object = None
+    samples_per_degree: float | None = None
     white: object = None
     ran: list = field(default_factory=list)
     errors: dict = field(default_factory=dict)
@@ -259,11 +266,16 @@ class Pipeline:
                 result,
             )
         if "scielab" in proc.metrics:
+            try:
+                result.samples_per_degree = _samples_per_degree(result.rendered, proc.viewing)
+            except CamsimError as exc:
+                result.errors["scielab"] = str(exc)
+                return result
             _, result.scielab = self._step(
                 "scielab",
-                (t_xyz, t_ixyz),
+                (t_xyz, t_ixyz, result.samples_per_degree),
                 lambda: metrics.scielab(
-                    _data(result.xyz), _data(result.ideal_xyz), _samples_per_degree(result.rendered), result.white
+                    _data(result.xyz), _data(result.ideal_xyz), result.samples_per_degree, result.white
                 ),
                 result,
             )
@@ -284,8 +296,8 @@ def _data(x):
     return np.asarray(getattr(x, "data", x))
 
 
-def _samples_per_degree(image):
-    """Samples per degree of visual angle for S-CIELAB: the image's angular resolution."""
-    from . import metrics
+def _samples_per_degree(image, viewing="camera"):
+    """Samples per degree of visual angle for S-CIELAB under ``viewing`` (see :class:`Processing`)."""
+    from .metrics.viewing import viewing_samples_per_degree
 
-    return metrics.samples_per_degree(image)
+    return viewing_samples_per_degree(viewing, image)

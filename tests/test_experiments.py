@@ -268,3 +268,57 @@ def test_cli_mosaic_writes_table_in_the_chapters_layout(tmp_path, capsys):
     assert [float(r["chapter_sigma_5"]) for r in rows] == [4.04, 4.16]
     assert all(float(r["mean_sigma_0"]) > 0.1 for r in rows)  # neither Gaussian design is colorimetric
     assert "460, 520, 580, 640 nm" in text and "camsim's choice" in text and "[2.37]" in text
+
+
+# --- S-CIELAB viewing ------------------------------------------------------------------------------------
+
+def test_figure_1_14_is_not_monotonic_with_noise_at_the_originals_viewing(tmp_path, capsys):
+    """At 10.26 samples/deg (the original's S-CIELAB example, the DCS-200's 102.6 / 10) the chapter's
+    remark holds: with noise (sigma 5) the illuminant-based error is lowest between the cones and the
+    DCS-200, not at alpha 0. At the chapter-era 102.6 the eye's blur hides the noise and it is not."""
+    out = tmp_path / "s"
+    status = camsim(["experiment", "sensors", "--alphas", "0,0.3,1", "--sigmas", "5", "--workers", "0", "--no-progress",
+                     "--samples-per-degree", "10.26", "--out", str(out)])
+    text = capsys.readouterr().out
+    assert status == 0 and "10.26 samples/deg" in text
+    with open(out / "sensors-summary.csv") as f:
+        reader = csv.DictReader(f)
+        rows = list(reader)
+    assert reader.fieldnames == ["scene", "alpha", "sigma", "method", "mean", "std", "n"]
+    ill = {float(r["alpha"]): float(r["mean"]) for r in rows if r["method"] == "illuminant"}
+    assert min(ill, key=ill.get) != 0.0
+    assert ill[0.3] < ill[0.0] < ill[1.0]
+    with open(out / "sensors-records.csv") as f:
+        recs = list(csv.DictReader(f))
+    assert {r["viewing"] for r in recs} == {"spd:10.26"} and {float(r["samples_per_degree"]) for r in recs} == {10.26}
+
+
+def test_viewing_changes_the_measured_error_and_is_recorded():
+    rec102 = sensors.run(scenes=[SMALL], alphas=[0.0], sigmas=[5.0], seeds=1)[0]
+    rec10 = sensors.run(scenes=[SMALL], alphas=[0.0], sigmas=[5.0], seeds=1, viewing="camera/10")[0]
+    assert rec102["viewing"] == "camera" and rec102["samples_per_degree"] == pytest.approx(102.6)
+    assert rec10["viewing"] == "camera/10" and rec10["samples_per_degree"] == pytest.approx(10.26)
+    assert rec10["noise_seed"] == rec102["noise_seed"]  # the same noise field, seen ten times larger
+    assert rec10["baseline"] > 2 * rec102["baseline"]
+
+
+def test_cli_mosaic_takes_samples_per_degree(tmp_path, capsys):
+    out = tmp_path / "m"
+    status = camsim(["experiment", "mosaic", "--scenes", SMALL, "--sigmas", "0", "--workers", "0", "--no-progress",
+                     "--demosaic", "bilinear", "--samples-per-degree", "20", "--out", str(out)])
+    assert status == 0 and "20 samples/deg" in capsys.readouterr().out
+    with open(out / "mosaic-records.csv") as f:
+        assert {float(r["samples_per_degree"]) for r in csv.DictReader(f)} == {20.0}
+
+
+@pytest.mark.parametrize("args", [["--samples-per-degree", "-1"], ["--viewing", "sideways"],
+                                  ["--viewing", "camera", "--samples-per-degree", "3"]])
+def test_cli_refuses_a_bad_viewing(tmp_path, capsys, args):
+    try:
+        status = camsim(["experiment", "sensors", "--scenes", SMALL, "--workers", "0", "--out", str(tmp_path / "x")] + args)
+    except SystemExit as exc:  # argparse: the two options exclude each other
+        status = exc.code
+    assert status == 2
+    err = capsys.readouterr().err
+    assert "viewing" in err or "samples_per_degree" in err
+    assert not (tmp_path / "x").exists()

@@ -39,6 +39,13 @@ def _common(p, default_out):
                    help=f"local Dask cluster of N single-thread workers (default: the CPU count, {os.cpu_count()}); 0 = no Dask, run in this process")
     p.add_argument("--scheduler", metavar="ADDRESS", help="use an existing Dask scheduler, e.g. tcp://host:8786 (its workers must have camsim)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    view = p.add_mutually_exclusive_group()
+    view.add_argument("--samples-per-degree", type=float, metavar="S",
+                      help="S-CIELAB samples per degree of visual angle, given directly (e.g. 10.26)")
+    view.add_argument("--viewing", default=None,
+                      help="how the rendered image is viewed, which fixes S-CIELAB's samples per degree: 'camera' (the "
+                      "default, the chapter's: the camera's angular resolution, 102.6 for the DCS-200), 'camera/10' (the "
+                      "original simulator's S-CIELAB example), or 'display:PITCHmm@DISTANCEm' (e.g. display:0.25mm@0.6m)")
 
 
 def register(subparsers):
@@ -81,6 +88,12 @@ def run(args):
     else:
         workers = args.workers or os.cpu_count() or 1
     progress = False if args.no_progress else None
+    from ..metrics.viewing import DEFAULT_VIEWING, parse_viewing
+
+    if args.samples_per_degree is not None:
+        viewing = parse_viewing(args.samples_per_degree)
+    else:
+        viewing = parse_viewing(args.viewing if args.viewing is not None else DEFAULT_VIEWING)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ParameterError("--out", f"{out} exists and is not a folder")
@@ -89,15 +102,16 @@ def run(args):
         alphas = grid.parse_values(args.alphas, "--alphas")
         # validation (and scene loading) happens here, before any worker starts
         configs = sensors.configurations(args.scenes, alphas, sigmas, args.seeds, distance=distance,
-                                         monitor=args.monitor, mosaic=args.mosaic)
+                                         monitor=args.monitor, mosaic=args.mosaic, viewing=viewing)
         module = sensors
     else:
         centers = grid.parse_values(args.centers, "--centers")
         configs = mosaic.configurations(args.scenes, sigmas, args.seeds, centers=centers, std_nm=args.std,
-                                        distance=distance, monitor=args.monitor, demosaic=args.demosaic)
+                                        distance=distance, monitor=args.monitor, demosaic=args.demosaic, viewing=viewing)
         module = mosaic
     where = f"scheduler {args.scheduler}" if args.scheduler else (f"local Dask cluster of {workers} worker(s)" if workers else "this process")
     print(f"camsim experiment {args.experiment}: {len(configs)} tasks on {where}")
+    print(viewing.describe(module.camera_rate()) if viewing.kind == "camera" else viewing.describe())
     from ..experiments.runner import run_tasks
 
     records = run_tasks(module.evaluate, configs, workers=workers, scheduler=args.scheduler, progress=progress,

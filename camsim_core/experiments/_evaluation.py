@@ -6,7 +6,7 @@ from functools import lru_cache
 
 import numpy as np
 
-__all__ = ["xyz_of", "monitor_white", "samples_per_degree", "mean_scielab"]
+__all__ = ["xyz_of", "monitor_white", "samples_per_degree", "mean_scielab", "check_viewing", "viewing_rate"]
 
 
 def xyz_of(rendered, monitor):
@@ -33,6 +33,21 @@ def samples_per_degree(image):
     from ..metrics import samples_per_degree as spd
 
     return spd(image)
+
+
+def check_viewing(viewing, name="viewing"):
+    """The canonical text of a viewing (:func:`camsim_core.metrics.parse_viewing`), validated before any task runs."""
+    from ..metrics.viewing import parse_viewing
+
+    return parse_viewing(viewing).spec
+
+
+def viewing_rate(viewing, camera_rate):
+    """S-CIELAB samples per degree under ``viewing`` for an image at ``camera_rate`` px/deg; and its description."""
+    from ..metrics.viewing import parse_viewing
+
+    v = parse_viewing(viewing)
+    return v.rate(camera_rate), v.describe(camera_rate)
 
 
 def mean_scielab(xyz, reference, samples_per_degree, white):

@@ -22,7 +22,9 @@ As in :mod:`camsim_core.experiments.sensors`: one exposure per scene for
 both designs and the ideal image (:func:`~camsim_core.experiments.grid.common_exposure`
 of the cones and both designs), 3.32 m from the scene by default, the
 shipped SimToolbox monitor, and the same noise field for both designs at a
-given (scene, sigma, seed index).
+given (scene, sigma, seed index). S-CIELAB's samples per degree follow the
+``viewing`` (:mod:`camsim_core.metrics.viewing`; by default the chapter's,
+the camera's angular resolution; ``"camera/10"`` the original's example).
 
 Programmatic use::
 
@@ -52,9 +54,11 @@ from .grid import (
 )
 from .results import format_mean_std, summarize as _summarize, write_csv
 from .runner import run_tasks
-from ._evaluation import ideal_reference, monitor as _monitor_named
+from ._evaluation import check_viewing, ideal_reference, monitor as _monitor_named, viewing_rate
+from ..metrics.viewing import DEFAULT_VIEWING
 
 __all__ = [
+    "camera_rate",
     "MosaicConfig",
     "DESIGNS",
     "SIGMAS",
@@ -82,7 +86,7 @@ STD_NM = 27.0
 CHAPTER_TABLE = {3: {0.0: 2.37, 2.0: 2.67, 5.0: 4.04}, 4: {0.0: 1.09, 2.0: 1.99, 5.0: 4.16}}
 
 _RECORD_COLUMNS = ("scene", "sensors", "sigma", "seed", "noise_seed", "exposure", "distance", "monitor", "centers",
-                   "std_nm", "demosaic", "height", "width", "error", "seconds")
+                   "std_nm", "demosaic", "viewing", "samples_per_degree", "height", "width", "error", "seconds")
 
 
 @dataclass(frozen=True)
@@ -99,6 +103,7 @@ class MosaicConfig:
     centers: tuple = CENTERS
     std_nm: float = STD_NM
     demosaic: str = "bayesian"
+    viewing: str = DEFAULT_VIEWING
 
     @property
     def noise_seed(self):
@@ -130,9 +135,18 @@ def camera(n_sensors, sigma=0.0, seed=0, *, centers=CENTERS, std_nm=STD_NM):
     )
 
 
+def camera_rate():
+    """The designs' angular resolution (px/deg): the samples per degree of the "camera" viewing."""
+    from ..metrics import samples_per_degree
+
+    return samples_per_degree(camera(4))
+
+
 def configurations(scenes=("cacaphony290",), sigmas=SIGMAS, seeds=1, *, designs=DESIGNS, centers=CENTERS, std_nm=STD_NM,
-                   distance=DEFAULT_DISTANCE, monitor=DEFAULT_MONITOR, demosaic="bayesian"):
-    """Validate a grid and list its tasks (scene x design x sigma x seed index)."""
+                   distance=DEFAULT_DISTANCE, monitor=DEFAULT_MONITOR, demosaic="bayesian", viewing=DEFAULT_VIEWING):
+    """Validate a grid and list its tasks (scene x design x sigma x seed index); ``viewing`` as in
+    :func:`camsim_core.experiments.sensors.configurations`."""
+    viewing = check_viewing(viewing)
     from ..camera import load_camera
     from ..errors import ParameterError
 
@@ -156,7 +170,8 @@ def configurations(scenes=("cacaphony290",), sigmas=SIGMAS, seeds=1, *, designs=
         for n in designs:
             for sigma in sigmas:
                 for s in range(seeds):
-                    out.append(MosaicConfig(name, n, sigma, s, exposure, distance, monitor, centers, float(std_nm), demosaic))
+                    out.append(MosaicConfig(name, n, sigma, s, exposure, distance, monitor, centers, float(std_nm), demosaic,
+                                            viewing))
     return out
 
 
@@ -183,20 +198,21 @@ def evaluate(config):
     raw = simulate(scene, cam, distance=config.distance, exposure=config.exposure)
     full = demosaic(raw, method=config.demosaic)
     shown = render(full, monitor, method="illuminant", illuminant=scene.illuminant, dimensions=config.sensors)
-    ideal_xyz, white, spd = _ideal(config.scene, config.distance, config.exposure, config.monitor)
+    ideal_xyz, white, camera_rate = _ideal(config.scene, config.distance, config.exposure, config.monitor)
+    spd, _ = viewing_rate(config.viewing, camera_rate)
     error = mean_scielab(xyz_of(shown, monitor), ideal_xyz, spd, white)
     rec = asdict(config)
     rec["centers"] = " ".join(f"{c:g}" for c in config.centers)
-    return {**rec, "noise_seed": config.noise_seed, "height": int(full.data.shape[0]), "width": int(full.data.shape[1]),
+    return {**rec, "noise_seed": config.noise_seed, "samples_per_degree": spd, "height": int(full.data.shape[0]), "width": int(full.data.shape[1]),
             "error": error, "seconds": time.perf_counter() - t0}
 
 
 def run(*, scenes=("cacaphony290",), sigmas=SIGMAS, seeds=1, designs=DESIGNS, centers=CENTERS, std_nm=STD_NM,
-        distance=DEFAULT_DISTANCE, monitor=DEFAULT_MONITOR, demosaic="bayesian", workers=None, scheduler=None,
-        processes=True, progress=False, function=evaluate):
+        distance=DEFAULT_DISTANCE, monitor=DEFAULT_MONITOR, demosaic="bayesian", viewing=DEFAULT_VIEWING, workers=None,
+        scheduler=None, processes=True, progress=False, function=evaluate):
     """Run the sweep; one record per configuration (see :func:`evaluate`), in grid order."""
     configs = configurations(scenes, sigmas, seeds, designs=designs, centers=centers, std_nm=std_nm, distance=distance,
-                             monitor=monitor, demosaic=demosaic)
+                             monitor=monitor, demosaic=demosaic, viewing=viewing)
     return run_tasks(function, configs, workers=workers, scheduler=scheduler, processes=processes, progress=progress,
                      desc="mosaic")
 

@@ -35,8 +35,12 @@ Choices the chapter leaves open, and why
   ``distance=None`` keeps each scene's own.
 * **Monitor**: the shipped SimToolbox test calibration (the chapter's Apple
   20" calibration is not available).
-* **S-CIELAB** at the camera's angular resolution (samples per degree), the
-  white point being the monitor's white.
+* **S-CIELAB viewing** (:mod:`camsim_core.metrics.viewing`): by default the
+  chapter's, samples per degree = the camera's angular resolution (102.6:
+  the 372-pixel image spans 3.6 degrees); ``viewing="camera/10"`` is the
+  original simulator's S-CIELAB example (10.26), ``viewing=S`` any rate.
+  The white point is the monitor's white. The records carry the viewing
+  and the samples per degree used; the printed table names them.
 * **Noise seeds**: the same noise field for every alpha at a given (scene,
   sigma, seed index) (:mod:`camsim_core.experiments.grid`).
 
@@ -71,9 +75,11 @@ from .grid import (
 )
 from .results import format_mean_std, summarize as _summarize, write_csv
 from .runner import run_tasks
-from ._evaluation import ideal_reference, monitor as _monitor_named
+from ._evaluation import check_viewing, ideal_reference, monitor as _monitor_named, viewing_rate
+from ..metrics.viewing import DEFAULT_VIEWING
 
 __all__ = [
+    "camera_rate",
     "SensorsConfig",
     "ALPHAS",
     "SIGMAS",
@@ -97,7 +103,7 @@ METHODS = ("baseline", "illuminant")
 SURFACE_DIMENSIONS = 3
 
 _RECORD_COLUMNS = ("scene", "alpha", "sigma", "seed", "noise_seed", "exposure", "distance", "monitor", "mosaic",
-                   "height", "width") + METHODS + ("seconds",)
+                   "viewing", "samples_per_degree", "height", "width") + METHODS + ("seconds",)
 
 
 @dataclass(frozen=True)
@@ -112,6 +118,7 @@ class SensorsConfig:
     distance: float | None = DEFAULT_DISTANCE
     monitor: str = DEFAULT_MONITOR
     mosaic: bool = False
+    viewing: str = DEFAULT_VIEWING
 
     @property
     def noise_seed(self):
@@ -137,14 +144,24 @@ def camera(alpha, sigma=0.0, seed=0, *, mosaic=False):
     )
 
 
+def camera_rate():
+    """The designs' angular resolution (px/deg): the samples per degree of the "camera" viewing."""
+    from ..metrics import samples_per_degree
+
+    return samples_per_degree(camera(0.0))
+
+
 def configurations(scenes=("cacaphony290",), alphas=ALPHAS, sigmas=SIGMAS, seeds=1, *, distance=DEFAULT_DISTANCE,
-                   monitor=DEFAULT_MONITOR, mosaic=False):
+                   monitor=DEFAULT_MONITOR, mosaic=False, viewing=DEFAULT_VIEWING):
     """Validate a grid and list its tasks (scene x alpha x sigma x seed index).
 
     Raises :class:`~camsim_core.errors.ParameterError` before anything runs
     for alpha outside [0, 1], a negative or non-finite sigma, seeds < 1, an
-    unknown scene or monitor, a non-positive distance.
+    unknown scene or monitor, a non-positive distance, a bad ``viewing``
+    (:func:`camsim_core.metrics.parse_viewing`: ``"camera"``, ``"camera/10"``,
+    a number of samples per degree, ...).
     """
+    viewing = check_viewing(viewing)
     alphas = check_unit_interval(alphas, "alphas")
     sigmas = check_sigmas(sigmas, "sigmas")
     seeds = check_seeds(seeds)
@@ -158,7 +175,7 @@ def configurations(scenes=("cacaphony290",), alphas=ALPHAS, sigmas=SIGMAS, seeds
         for alpha in alphas:
             for sigma in sigmas:
                 for s in range(seeds):
-                    out.append(SensorsConfig(name, alpha, sigma, s, exposure, distance, monitor, bool(mosaic)))
+                    out.append(SensorsConfig(name, alpha, sigma, s, exposure, distance, monitor, bool(mosaic), viewing))
     return out
 
 
@@ -186,7 +203,8 @@ def evaluate(config):
     image = simulate(scene, cam, distance=config.distance, exposure=config.exposure)
     if config.mosaic:
         image = demosaic(image, method="bilinear")
-    ideal_xyz, white, spd = _ideal(config.scene, config.distance, config.exposure, config.monitor, config.mosaic)
+    ideal_xyz, white, camera_rate = _ideal(config.scene, config.distance, config.exposure, config.monitor, config.mosaic)
+    spd, _ = viewing_rate(config.viewing, camera_rate)
     errors = {}
     for method in METHODS:
         if method == "illuminant":
@@ -197,6 +215,7 @@ def evaluate(config):
     return {
         **asdict(config),
         "noise_seed": config.noise_seed,
+        "samples_per_degree": spd,
         "height": int(image.data.shape[0]),
         "width": int(image.data.shape[1]),
         **errors,
@@ -205,8 +224,8 @@ def evaluate(config):
 
 
 def run(*, scenes=("cacaphony290",), alphas=ALPHAS, sigmas=SIGMAS, seeds=1, distance=DEFAULT_DISTANCE,
-        monitor=DEFAULT_MONITOR, mosaic=False, workers=None, scheduler=None, processes=True, progress=False,
-        function=evaluate):
+        monitor=DEFAULT_MONITOR, mosaic=False, viewing=DEFAULT_VIEWING, workers=None, scheduler=None, processes=True,
+        progress=False, function=evaluate):
     """Run the sweep and return one record (dict, see :func:`evaluate`) per configuration, in grid order.
 
     ``workers=None`` (and no ``scheduler``) runs in this process without
@@ -215,7 +234,8 @@ def run(*, scenes=("cacaphony290",), alphas=ALPHAS, sigmas=SIGMAS, seeds=1, dist
     validated before any task starts. ``function`` replaces the evaluation
     (for tests).
     """
-    configs = configurations(scenes, alphas, sigmas, seeds, distance=distance, monitor=monitor, mosaic=mosaic)
+    configs = configurations(scenes, alphas, sigmas, seeds, distance=distance, monitor=monitor, mosaic=mosaic,
+                             viewing=viewing)
     return run_tasks(function, configs, workers=workers, scheduler=scheduler, processes=processes, progress=progress,
                      desc="sensors")
 
@@ -258,6 +278,8 @@ def write_outputs(records, folder):
     scenes = list(dict.fromkeys(r["scene"] for r in summary))
     for scene in scenes:
         suffix = "" if len(scenes) == 1 else "-" + Path(scene).stem
-        fig = sensors_figure([r for r in summary if r["scene"] == scene], title=f"scene {scene}")
+        views = {(r["viewing"], r["samples_per_degree"]) for r in records if r["scene"] == scene and "viewing" in r}
+        view = "; ".join(f"S-CIELAB {spd:.4g} samples/deg ({v})" for v, spd in sorted(views))
+        fig = sensors_figure([r for r in summary if r["scene"] == scene], title=f"scene {scene}" + (f"\n{view}" if view else ""))
         paths.append(save_png(fig, folder / f"figure-1-14{suffix}.png"))
     return paths

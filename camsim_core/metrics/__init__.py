@@ -1,7 +1,8 @@
 """Image quality metrics (chapter section 4.3 and the comparison of section 3.2).
 
 * :mod:`.cielab` - CIELAB Delta E*ab and CIEDE2000 from XYZ (colour-science);
-* :mod:`.s_cielab` - S-CIELAB (Zhang & Wandell), with the samples-per-degree rule;
+* :mod:`.s_cielab` - S-CIELAB (Zhang & Wandell);
+* :mod:`.viewing` - how the rendered image is viewed: S-CIELAB's samples per degree;
 * :mod:`.block` - registration and block-averaged Delta E*ab (Figure 1.13);
 * :mod:`.real` - the real versus simulated Kodak DCS-200 comparison.
 
@@ -19,6 +20,7 @@ from .s_cielab import (
     scielab,
     scielab_filter,
 )
+from .viewing import DEFAULT_VIEWING, ORIGINAL_EXAMPLE_VIEWING, Viewing, parse_viewing, viewing_samples_per_degree
 from .block import BlockComparison, Registration, block_average, block_compare, register
 from .real import RealComparison, compare_real
 
@@ -32,6 +34,11 @@ __all__ = [
     "filter_opponent",
     "samples_per_degree",
     "display_samples_per_degree",
+    "Viewing",
+    "parse_viewing",
+    "viewing_samples_per_degree",
+    "DEFAULT_VIEWING",
+    "ORIGINAL_EXAMPLE_VIEWING",
     "XYZ_TO_OPPONENT",
     "OPPONENT_TO_XYZ",
     "GAUSSIANS",

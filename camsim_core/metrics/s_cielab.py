@@ -33,15 +33,13 @@ on every slider move; ``tests/test_scielab.py`` checks it against a direct
 Samples per degree
 ------------------
 S-CIELAB needs the number of image samples per degree of visual angle at
-the observer's eye. The chapter (section 4.3) neglects differences between
-the size of the scene and of the displayed image: the rendered image is
-taken to subtend at the eye the visual angle the scene subtended at the
-camera. One camera pixel then covers ``1 / phi`` degree, ``phi`` being the
-camera's angular resolution (pixels per degree, Eq. 1.1): the samples per
-degree are the camera's angular resolution, :func:`samples_per_degree`
-(102.6 for the Kodak DCS-200 with its 50 mm lens). To evaluate a particular
-display instead, :func:`display_samples_per_degree` gives the rate from the
-pixel pitch and viewing distance.
+the observer's eye: a property of how the rendered image is viewed, chosen
+with :mod:`.viewing` (the default is the chapter's: the rendered image
+subtends at the eye the angle the scene subtended at the camera, so the
+rate is the camera's angular resolution, :func:`samples_per_degree`, 102.6
+for the Kodak DCS-200 with its 50 mm lens; the original simulator's
+example divided it by 10). :func:`display_samples_per_degree` gives the
+rate of a display from its pixel pitch and the viewing distance.
 
 Hand-written: no maintained Python package implements S-CIELAB 1.1.1's
 kernels and edge handling; the filtering uses ``scipy.fft``, the colorimetry
