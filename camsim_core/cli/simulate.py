@@ -29,7 +29,7 @@ def register(subparsers):
     p.add_argument("--unquantized", action="store_true", help="no digitization (float output, write .npy)")
     p.add_argument("--no-mosaic", action="store_true", help="simulate a full-colour (non-mosaiced) camera")
     p.add_argument("--seed", type=int, help="noise seed")
-    p.add_argument("--demosaic", metavar="METHOD", help="demosaic the raw image (bilinear, freeman, bayesian, malvar2004, menon2007)")
+    p.add_argument("--demosaic", metavar="METHOD", help="demosaic the raw image (bilinear, freeman, bayesian, bayesian-original, malvar2004, menon2007)")
     p.add_argument("--render", metavar="METHOD", help="render for display (baseline, illuminant); implies --demosaic bilinear for a mosaic")
     p.add_argument("--illuminant", help="for --render illuminant: gray-world, max-rgb, or omit for the scene's known one")
     p.add_argument("--monitor", default="simtoolbox-test", help="monitor for --render (default simtoolbox-test)")

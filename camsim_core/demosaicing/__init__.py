@@ -6,8 +6,12 @@
 ``"demosaic:METHOD"`` appended to its history.
 
 Methods: ``bilinear`` (any tile), ``freeman`` (any tile), ``bayesian``
-(any tile; Brainard's method), ``malvar2004`` and ``menon2007`` (Bayer
-tiles only, through colour-demosaicing).
+(any tile; camsim's extension of Brainard's method: an achromatic detail
+term, local means, a 7 x 7 window, the image's noise sigma),
+``bayesian-original`` (any tile; as close to Brainard's method as the
+chapter allows: 5 x 5, no detail term, one global mean, a noise fraction;
+see :mod:`.bayesian`), ``malvar2004`` and ``menon2007`` (Bayer tiles only,
+through colour-demosaicing).
 """
 
 from __future__ import annotations
@@ -39,6 +43,12 @@ def _bayesian(image, **options):
     return demosaic_bayesian(image, **options)
 
 
+def _bayesian_original(image, **options):
+    from .bayesian import demosaic_bayesian
+
+    return demosaic_bayesian(image, mode="original", **options)
+
+
 def _malvar(image, **options):
     from .bayer import demosaic_malvar2004
 
@@ -55,6 +65,7 @@ METHODS = {
     "bilinear": _bilinear,
     "freeman": _freeman,
     "bayesian": _bayesian,
+    "bayesian-original": _bayesian_original,
     "malvar2004": _malvar,
     "menon2007": _menon,
 }

@@ -160,8 +160,8 @@ def configurations(scenes=("cacaphony290",), sigmas=SIGMAS, seeds=1, *, designs=
         raise ParameterError("designs", f"choose among 3 and 4 sensors, got {designs}")
     distance = check_distance(distance)
     monitor = check_monitor(monitor)
-    if demosaic not in ("bayesian", "bilinear", "freeman"):
-        raise ParameterError("demosaic", f"must be bayesian, bilinear or freeman (any tile), got {demosaic!r}")
+    if demosaic not in ("bayesian", "bayesian-original", "bilinear", "freeman"):
+        raise ParameterError("demosaic", f"must be bayesian, bayesian-original, bilinear or freeman (any tile), got {demosaic!r}")
     loaded = check_scenes(scenes)
     cams = [load_camera("human-cones")] + [camera(n, centers=centers, std_nm=std_nm) for n in DESIGNS]
     out = []
