@@ -9,21 +9,58 @@ scenes, cameras and monitors are read once per process and shared read-only.
 from __future__ import annotations
 
 import io
+import weakref
 
 import panel as pn
 
+from . import state as state_module
 from .state import BITS_CHOICES, URL_PARAMETERS, ExplorerState
+from .upload import BoundedUpload
 from .views import CameraView, ResultsView, SceneView
 
-__all__ = ["create_app", "DEFAULT_SCENE"]
+__all__ = ["create_app", "DEFAULT_SCENE", "configure", "LIVE_STATES"]
 
 DEFAULT_SCENE = "cacaphony290"
-_options = {"scene": None}
+_options = {"scene": None, "upload": True}
+#: Every session's state while it lives (weak: a closed session's state must be freed).
+LIVE_STATES = weakref.WeakSet()
 
 
-def configure(scene=None):
-    """Set the scene new sessions open on (``camsim serve --scene``)."""
+def configure(scene=None, *, limits=None, upload=True):
+    """Set what new sessions get (``camsim serve``): the scene they open on, the limits, whether uploads are offered."""
     _options["scene"] = scene
+    _options["upload"] = bool(upload)
+    if limits is not None:
+        state_module.LIMITS = limits
+
+
+def _release(state, page):
+    """Break a closed session's links so that its state, pipeline and views are freed.
+
+    Widgets made with ``from_param`` and the views watch the state, and the
+    state's watchers point back at them; dropping the watchers, the cached
+    pipeline, the uploads, the last result and the page's children leaves
+    nothing that reaches the session's arrays.
+    """
+    for group in list(state.param.watchers.values()) if hasattr(state.param, "watchers") else []:
+        for watchers in list(group.values()):
+            for w in list(watchers):
+                try:
+                    state.param.unwatch(w)
+                except Exception:
+                    pass
+    state.pipeline = None
+    state._uploads.clear()
+    with param_discard(state):
+        state.result = None
+    page.objects = []
+    page.state = None
+
+
+def param_discard(obj):
+    import param
+
+    return param.parameterized.discard_events(obj)
 
 
 def _widget(cls, state, parameter, css, **kw):
@@ -33,13 +70,20 @@ def _widget(cls, state, parameter, css, **kw):
 def _controls(state, results):
     w = pn.widgets
     scene = _widget(w.Select, state, "scene", "w-scene", name="Scene")
-    upload = w.FileInput(accept=".npz,.zip", css_classes=["w-upload"], sizing_mode="stretch_width")
+    limits = state_module.LIMITS
+    upload = BoundedUpload(accept=".npz,.zip", max_bytes=limits.upload.max_upload_bytes, css_classes=["w-upload"],
+                           sizing_mode="stretch_width", visible=_options["upload"])
 
     def on_upload(event):
         if upload.value is not None:
             state.add_upload(upload.filename, upload.value)
 
+    def on_refused(event):
+        if upload.refused:
+            state.message = f"Upload refused: {upload.refused.rsplit(' (refusal', 1)[0]}"
+
     upload.param.watch(on_upload, "value")
+    upload.param.watch(on_refused, "refused")
 
     camera = _widget(w.Select, state, "camera", "w-camera", name="Camera preset")
     alpha = _widget(w.FloatSlider, state, "alpha", "w-alpha", name="Mixture alpha (0 cones, 1 DCS-200)")
@@ -77,13 +121,19 @@ def _controls(state, results):
     params_down = w.FileDownload(callback=lambda: io.BytesIO(state.to_json().encode()), filename="camsim-parameters.json",
                                  label="Parameters (JSON)", css_classes=["w-json-download"], button_type="light",
                                  sizing_mode="stretch_width")
-    params_up = w.FileInput(accept=".json", css_classes=["w-json-upload"], sizing_mode="stretch_width")
+    params_up = BoundedUpload(accept=".json", max_bytes=limits.max_json_bytes, css_classes=["w-json-upload"],
+                              sizing_mode="stretch_width")
 
     def on_params(event):
         if params_up.value is not None:
             state.from_json(params_up.value.decode("utf-8", errors="replace"))
 
+    def on_params_refused(event):
+        if params_up.refused:
+            state.message = f"Parameters file refused: {params_up.refused.rsplit(' (refusal', 1)[0]}"
+
     params_up.param.watch(on_params, "value")
+    params_up.param.watch(on_params_refused, "refused")
     downloads = [
         w.FileDownload(callback=results.rendered_png, filename="rendered.png", label="Rendered PNG",
                        css_classes=["w-png"], button_type="light", sizing_mode="stretch_width"),
@@ -94,8 +144,8 @@ def _controls(state, results):
     ]
     card = dict(sizing_mode="stretch_width", margin=(4, 0))
     return pn.Column(
-        pn.Card(scene, pn.pane.Markdown("Upload a scene (.npz, or .zip of a .Simg with its planes):"), upload,
-                title="Scene", **card),
+        pn.Card(scene, pn.pane.Markdown("Upload a scene (.npz, or .zip of a .Simg with its planes):",
+                                        visible=_options["upload"]), upload, title="Scene", **card),
         pn.Card(camera, alpha, centers, widths, mosaic, tile, title="Camera", **card),
         pn.Card(distance, pn.Row(exposure, auto), f_stop, noise, bits, seed, title="Exposure and noise", **card),
         pn.Card(demosaic, render, illum, monitor, metric, title="Processing", **card),
@@ -127,11 +177,17 @@ def create_app(scene=None):
     else:  # a Scene read from a file by ``camsim serve --scene PATH``
         state = ExplorerState()
         state.add_scene(f"file:{chosen.name}", chosen)
+    LIVE_STATES.add(state)
     if pn.state.location is not None:
         def on_error(values):
-            state.message = f"The link held parameters that were refused: {values}"
+            state.message = f"The link held parameters that were refused: {str(values)[:300]}"
 
-        pn.state.location.sync(state, {p: p for p in URL_PARAMETERS}, on_error=on_error)
+        too_long = _long_url_values(pn.state.location.search)
+        if too_long:
+            state.message = (f"The link's values for {', '.join(too_long)} are longer than "
+                             f"{state_module.LIMITS.max_text} characters and were ignored")
+        else:
+            pn.state.location.sync(state, {p: p for p in URL_PARAMETERS}, on_error=on_error)
     results = ResultsView(state)
     scene_view = SceneView(state)
     camera_view = CameraView(state)
@@ -172,4 +228,18 @@ def create_app(scene=None):
         sizing_mode="stretch_width",
     )
     page.state = state  # for tests and notebooks
+    if pn.state.curdoc is not None and pn.state.curdoc.session_context is not None:
+        pn.state.on_session_destroyed(lambda ctx, state=state, page=page: _release(state, page))
     return page
+
+
+def _long_url_values(search):
+    """Names of the URL's parameters whose values exceed ``LIMITS.max_text`` characters."""
+    from urllib.parse import parse_qsl
+
+    limit = state_module.LIMITS.max_text
+    try:
+        pairs = parse_qsl(str(search or "").lstrip("?"), keep_blank_values=True, max_num_fields=200)
+    except ValueError:
+        return ["(too many fields)"]
+    return sorted({k[:40] for k, v in pairs if len(v) > limit or len(k) > limit})

@@ -12,10 +12,8 @@ leaves ``result`` at the last good one: the page never goes dead.
 
 from __future__ import annotations
 
-import io
 import json
-import tempfile
-import zipfile
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
@@ -26,10 +24,13 @@ import camsim_core as cc
 from camsim_core.cache import Pipeline, Processing
 from camsim_core.camera import camera_preset
 from camsim_core.datasets.sensors import gaussian_sensors
-from camsim_core.errors import CamsimError, FileFormatError, ParameterError
+from camsim_core.errors import CamsimError, ParameterError
+from camsim_core.io.upload import UploadLimits
+from camsim_core.io.upload import load_upload as _engine_load_upload
 from camsim_core.simulation import BAYER, FOUR_SENSOR_GRID
 
-__all__ = ["ExplorerState", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_PARAMETERS", "parse_tile", "load_upload"]
+__all__ = ["ExplorerState", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_PARAMETERS", "parse_tile", "parse_numbers",
+           "load_upload", "ServerLimits", "LIMITS", "json_depth"]
 
 #: Camera presets offered (``mixture`` uses the alpha slider).
 CAMERA_CHOICES = tuple(cc.CAMERA_NAMES) + ("mixture",)
@@ -66,67 +67,113 @@ def preset(name):
     return camera_preset(name)
 
 
+@dataclass
+class ServerLimits:
+    """What one session may ask of the server (``camsim serve`` flags set them; the README lists them).
+
+    Attributes
+    ----------
+    upload : UploadLimits
+        Bounds on an uploaded scene (size, zip members, scene values).
+    max_sensors : int
+        Most Gaussian sensors (entries of the centres or widths list), default 16.
+    max_tile : int
+        Largest side of a custom mosaic tile, default 8 (an 8 x 8 tile).
+    max_text : int
+        Longest text field or URL value, characters, default 256.
+    max_json_bytes : int
+        Largest parameters JSON, bytes, default 64 KiB.
+    max_json_depth : int
+        Deepest nesting of the parameters JSON, default 4 (it is flat: an object of values).
+    max_uploads : int
+        Uploaded scenes a session keeps (the oldest is dropped), default 3.
+    """
+
+    upload: UploadLimits = field(default_factory=UploadLimits)
+    max_sensors: int = 16
+    max_tile: int = 8
+    max_text: int = 256
+    max_json_bytes: int = 64 * 1024
+    max_json_depth: int = 4
+    max_uploads: int = 3
+
+
+#: The limits in force in this process (``camsim serve`` replaces them).
+LIMITS = ServerLimits()
+
+
+def _check_text(text, name):
+    text = str(text)
+    if len(text) > LIMITS.max_text:
+        raise ParameterError(name, f"is {len(text)} characters long; at most {LIMITS.max_text} are accepted")
+    return text
+
+
 def parse_numbers(text, name):
-    """Comma- or space-separated numbers from a text field."""
+    """Comma- or space-separated finite numbers from a text field (at most ``LIMITS.max_sensors``)."""
+    text = _check_text(text, name)
     try:
-        values = [float(v) for v in str(text).replace(",", " ").split()]
+        values = [float(v) for v in text.replace(",", " ").split()]
     except ValueError:
         raise ParameterError(name, f"expected numbers separated by commas, got {text!r}") from None
     if not values:
         raise ParameterError(name, "expected at least one number")
+    if len(values) > LIMITS.max_sensors:
+        raise ParameterError(name, f"{len(values)} numbers given; at most {LIMITS.max_sensors} sensors are allowed")
+    if not all(np.isfinite(values)):
+        raise ParameterError(name, f"expected finite numbers, got {text!r}")
     return values
 
 
 def parse_tile(text):
-    """A tile from text: rows separated by ';' or new lines, entries by spaces or commas (0-based)."""
-    rows = [r for r in str(text).replace("\n", ";").split(";") if r.strip()]
+    """A tile from text: rows separated by ';' or new lines, entries by spaces or commas (0-based).
+
+    At most ``LIMITS.max_tile`` rows and columns.
+    """
+    text = _check_text(text, "custom_tile")
+    rows = [r for r in text.replace("\n", ";").split(";") if r.strip()]
     try:
         tile = [[int(v) for v in r.replace(",", " ").split()] for r in rows]
     except ValueError:
         raise ParameterError("custom_tile", f"entries must be whole sensor indices, got {text!r}") from None
     if not tile or len({len(r) for r in tile}) != 1 or not tile[0]:
         raise ParameterError("custom_tile", "rows must be non-empty and of equal length, e.g. '1 0; 2 1'")
+    if len(tile) > LIMITS.max_tile or len(tile[0]) > LIMITS.max_tile:
+        raise ParameterError("custom_tile", f"is {len(tile)} x {len(tile[0])}; at most {LIMITS.max_tile} x {LIMITS.max_tile} is allowed")
+    if min(min(r) for r in tile) < 0:
+        raise ParameterError("custom_tile", "sensor indices start at 0; negative entries are not allowed")
     return np.array(tile)
 
 
-def load_upload(filename, content):
-    """A Scene from uploaded bytes: an ``.npz``, or a ``.zip`` holding a ``.Simg`` and its planes.
+def json_depth(text):
+    """Deepest nesting of brackets in JSON ``text``, counted without parsing (strings skipped).
 
-    Raises FileFormatError with a message for the user when the upload is not a scene.
+    Written by hand so that a document nested 100,000 deep is measured in
+    linear time instead of exhausting :func:`json.loads`'s recursion.
     """
-    name = Path(filename or "upload").name
-    suffix = Path(name).suffix.lower()
-    if suffix not in (".npz", ".zip"):
-        raise FileFormatError(name, "upload a scene as .npz, or a .zip of a .Simg header with its planes")
-    try:
-        return _load_upload(name, suffix, content)
-    except FileFormatError as exc:
-        # name the user's file, not the server's temporary copy
-        raise FileFormatError(name, str(exc).split(": ", 1)[-1]) from None
+    depth = deepest = 0
+    in_string = escaped = False
+    for ch in text:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif ch == "\\":
+                escaped = True
+            elif ch == '"':
+                in_string = False
+        elif ch == '"':
+            in_string = True
+        elif ch in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif ch in "]}":
+            depth -= 1
+    return deepest
 
 
-def _load_upload(name, suffix, content):
-    with tempfile.TemporaryDirectory(prefix="camsim-upload-") as tmp:
-        tmp = Path(tmp)
-        if suffix == ".npz":
-            path = tmp / name
-            path.write_bytes(content)
-            scene = cc.load_scene(path)
-        else:
-            try:
-                with zipfile.ZipFile(io.BytesIO(content)) as z:
-                    for member in z.infolist():
-                        target = (tmp / member.filename).resolve()
-                        if not str(target).startswith(str(tmp.resolve())):
-                            raise FileFormatError(name, f"unsafe path in zip: {member.filename}")
-                    z.extractall(tmp)
-            except zipfile.BadZipFile:
-                raise FileFormatError(name, "not a readable zip file") from None
-            headers = sorted(tmp.rglob("*.Simg")) + sorted(tmp.rglob("*.simg"))
-            if not headers:
-                raise FileFormatError(name, "the zip holds no .Simg header")
-            scene = cc.load_scene(headers[0])
-    return scene
+def load_upload(filename, content, limits=None):
+    """A Scene from uploaded bytes (the engine's :func:`camsim_core.io.upload.load_upload`, within ``LIMITS``)."""
+    return _engine_load_upload(filename, content, limits or LIMITS.upload)
 
 
 class ExplorerState(param.Parameterized):
@@ -280,19 +327,26 @@ class ExplorerState(param.Parameterized):
         except CamsimError as exc:
             self.message = f"Upload refused: {exc}"
             return False
-        except Exception as exc:
-            self.message = f"Upload refused: {filename}: {type(exc).__name__}: {exc}"
+        except Exception as exc:  # never a server path or a traceback in the page
+            self.message = f"Upload refused: {Path(str(filename)).name}: could not be read ({type(exc).__name__})"
             return False
         self.message = ""
-        self.add_scene(f"upload:{Path(filename).stem}", scene)
+        self.add_scene(f"upload:{scene.name}", scene)
         return True
 
     def add_scene(self, key, scene):
-        """Offer ``scene`` (a Scene object) under ``key`` in this session and select it."""
+        """Offer ``scene`` (a Scene object) under ``key`` in this session and select it.
+
+        A session keeps at most ``LIMITS.max_uploads`` scenes of its own; the oldest is dropped.
+        """
+        self._uploads.pop(key, None)
         self._uploads[key] = scene
-        objs = list(self.param.scene.objects)
-        if key not in objs:
-            self.param.scene.objects = objs + [key]
+        objs = [o for o in self.param.scene.objects if o != key]
+        while len(self._uploads) > max(1, LIMITS.max_uploads):
+            old = next(iter(self._uploads))
+            del self._uploads[old]
+            objs = [o for o in objs if o != old]
+        self.param.scene.objects = objs + [key]
         self.scene = key
 
     # -- reproducible state ----------------------------------------------------
@@ -304,10 +358,19 @@ class ExplorerState(param.Parameterized):
         return json.dumps(self.to_dict(), indent=2)
 
     def from_json(self, text):
-        """Apply parameters from JSON text; unknown or invalid entries are refused with a message."""
+        """Apply parameters from JSON text; unknown, invalid, oversized or too deep entries are refused with a message."""
+        if isinstance(text, bytes):
+            text = text.decode("utf-8", errors="replace")
+        text = str(text)
+        if len(text.encode("utf-8", errors="replace")) > LIMITS.max_json_bytes:
+            self.message = f"Parameters file is larger than {LIMITS.max_json_bytes} bytes"
+            return False
+        if json_depth(text) > LIMITS.max_json_depth:
+            self.message = f"Parameters file is nested deeper than {LIMITS.max_json_depth} levels"
+            return False
         try:
             values = json.loads(text)
-        except (ValueError, UnicodeDecodeError) as exc:
+        except (ValueError, UnicodeDecodeError, RecursionError) as exc:
             self.message = f"Parameters file is not JSON: {exc}"
             return False
         if not isinstance(values, dict):
@@ -315,8 +378,12 @@ class ExplorerState(param.Parameterized):
             return False
         unknown = sorted(set(values) - set(URL_PARAMETERS))
         if unknown:
-            self.message = f"Parameters file has unknown entries: {', '.join(unknown)}"
+            self.message = f"Parameters file has unknown entries: {', '.join(unknown)[:200]}"
             return False
+        for key, value in values.items():
+            if isinstance(value, (list, dict)) or (isinstance(value, str) and len(value) > LIMITS.max_text):
+                self.message = f"Parameters file refused: {key} must be a single value of at most {LIMITS.max_text} characters"
+                return False
         before = self.to_dict()
         try:
             self._updating = True

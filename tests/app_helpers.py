@@ -33,12 +33,17 @@ def free_port():
 
 
 @contextmanager
-def explorer_server(scene=None):
-    """``camsim serve`` on 127.0.0.1 and a free port, in a subprocess; yields the base URL."""
+def explorer_server(scene=None, extra_args=(), on_start=None):
+    """``camsim serve`` on 127.0.0.1 and a free port, in a subprocess; yields the base URL.
+
+    ``extra_args`` are more ``camsim serve`` flags; ``on_start(proc)`` is
+    called with the server process once it answers (e.g. to watch its memory).
+    """
     port = free_port()
     cmd = [sys.executable, "-m", "camsim_core.cli", "serve", "--port", str(port), "--address", "127.0.0.1"]
     if scene:
         cmd += ["--scene", scene]
+    cmd += list(extra_args)
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
                OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", BOKEH_LOG_LEVEL="warn")
     log = open(ARTIFACTS / f"server-{port}.log", "w") if ARTIFACTS.exists() else subprocess.DEVNULL
@@ -50,7 +55,7 @@ def explorer_server(scene=None):
             if proc.poll() is not None:
                 raise RuntimeError(f"camsim serve exited with status {proc.returncode} (see {getattr(log, 'name', 'log')})")
             try:
-                with urllib.request.urlopen(url, timeout=5) as r:
+                with urllib.request.urlopen(url, timeout=TIMEOUT) as r:  # a loaded machine may take seconds per page
                     if r.status == 200:
                         break
             except OSError:
@@ -58,6 +63,8 @@ def explorer_server(scene=None):
             if time.monotonic() > deadline:
                 raise RuntimeError(f"camsim serve did not answer on {url} within {TIMEOUT:.0f} s")
             time.sleep(0.3)
+        if on_start is not None:
+            on_start(proc)
         yield url
     finally:
         proc.terminate()

@@ -1,28 +1,75 @@
-"""``camsim serve``: start the explorer (a Panel web app, issue 5) on a local port.
+"""``camsim serve``: start the explorer (a Panel web app) on a local port.
 
 The engine itself never imports Panel: this command imports the ``app``
-package only when it runs.
+package only when it runs. Every bound a session is held to (upload size,
+zip members, scene size, Gaussian sensors, tile size, text and JSON
+sizes, idle time) is a flag here and listed in the README.
 """
 
 from __future__ import annotations
 
+import socket
 import sys
 from pathlib import Path
 
 from ..errors import ParameterError
 
-__all__ = ["register", "run"]
+__all__ = ["register", "run", "WEBSOCKET_MAX_MESSAGE_BYTES"]
+
+#: Largest websocket message the server accepts (Bokeh's default, set explicitly): uploads travel in 1 MiB pieces.
+WEBSOCKET_MAX_MESSAGE_BYTES = 20 * 2**20
+
+
+def _positive_int(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise ParameterError("limit", f"expected a whole number, got {text!r}") from None
+    if v < 1:
+        raise ParameterError("limit", f"must be at least 1, got {v}")
+    return v
+
+
+def _positive_float(text):
+    try:
+        v = float(text)
+    except ValueError:
+        raise ParameterError("limit", f"expected a number, got {text!r}") from None
+    if not (v > 0 and v < float("inf")):
+        raise ParameterError("limit", f"must be a positive number, got {text!r}")
+    return v
 
 
 def register(subparsers):
+    from ..io.upload import UploadLimits
+
+    up = UploadLimits()
     p = subparsers.add_parser("serve", help="start the explorer web app")
     p.add_argument("--port", type=int, default=5006, help="port to listen on (default 5006; 0 picks a free one)")
     p.add_argument("--address", default="127.0.0.1",
                    help="address to listen on (default 127.0.0.1; 0.0.0.0 to serve a class or a review)")
     p.add_argument("--scene", default=None, help="scene sessions open on: a shipped name or a .Simg / .npz path")
-    p.add_argument("--allow-origin", action="append", default=[],
-                   help="extra host:port allowed to open the websocket (repeatable)")
+    p.add_argument("--allow-websocket-origin", "--allow-origin", dest="allow_origin", action="append", default=[],
+                   metavar="HOST[:PORT]", help="extra host:port allowed to open the websocket (repeatable)")
     p.add_argument("--show", action="store_true", help="open a browser tab")
+    p.add_argument("--no-upload", action="store_true", help="offer no scene upload (for public demos)")
+    g = p.add_argument_group("limits")
+    g.add_argument("--max-upload-mb", type=_positive_float, default=up.max_upload_bytes / 2**20,
+                   help=f"largest uploaded file, MiB (default {up.max_upload_bytes / 2**20:g})")
+    g.add_argument("--max-zip-members", type=_positive_int, default=up.max_members,
+                   help=f"most members of an uploaded zip (default {up.max_members})")
+    g.add_argument("--max-unzipped-mb", type=_positive_float, default=up.max_total_bytes / 2**20,
+                   help=f"largest total uncompressed size of an uploaded zip, MiB (default {up.max_total_bytes / 2**20:g})")
+    g.add_argument("--max-scene-values", type=_positive_int, default=up.max_scene_values,
+                   help=f"most values (pixels x planes) of an uploaded scene (default {up.max_scene_values})")
+    g.add_argument("--max-sensors", type=_positive_int, default=16, help="most Gaussian sensors (default 16)")
+    g.add_argument("--max-tile", type=_positive_int, default=8, help="largest custom tile side (default 8)")
+    g.add_argument("--max-text", type=_positive_int, default=256,
+                   help="longest text field or URL value, characters (default 256)")
+    g.add_argument("--max-json-kb", type=_positive_float, default=64, help="largest parameters JSON, KiB (default 64)")
+    g.add_argument("--max-uploads", type=_positive_int, default=3, help="uploaded scenes a session keeps (default 3)")
+    g.add_argument("--session-idle", type=_positive_float, default=60.0,
+                   help="seconds after its last browser tab closes that a session is freed (default 60)")
     p.set_defaults(func=run)
 
 
@@ -36,11 +83,67 @@ def _import_app():
     return app.main
 
 
+def limits_from(args):
+    """The server's :class:`app.state.ServerLimits` from the parsed flags."""
+    from app.state import ServerLimits
+
+    from ..io.upload import UploadLimits
+
+    up = UploadLimits()
+    total = int(args.max_unzipped_mb * 2**20)
+    upload = UploadLimits(
+        max_upload_bytes=int(args.max_upload_mb * 2**20),
+        max_members=args.max_zip_members,
+        max_member_bytes=min(up.max_member_bytes, total),
+        max_total_bytes=total,
+        max_scene_values=args.max_scene_values,
+    )
+    return ServerLimits(upload=upload, max_sensors=args.max_sensors, max_tile=args.max_tile, max_text=args.max_text,
+                        max_json_bytes=int(args.max_json_kb * 1024), max_uploads=args.max_uploads)
+
+
+def _lan_address():
+    """This machine's address on its network (no packet is sent), or its host name."""
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.connect(("10.255.255.255", 1))
+            return s.getsockname()[0]
+    except OSError:
+        return socket.gethostname()
+
+
+def public_host(address):
+    """The host the printed URL names: ``localhost`` locally, the machine's address for 0.0.0.0."""
+    if address in ("127.0.0.1", "localhost", "::1"):
+        return "localhost"
+    if address in ("0.0.0.0", "", "::"):
+        return _lan_address()
+    return address
+
+
+def allowed_origins(address, port, extra=()):
+    """Websocket origins allowed: the printed URL's host (and loopback names), plus ``extra``; never ``*``."""
+    hosts = {"localhost", "127.0.0.1", public_host(address)}
+    if address not in ("0.0.0.0", "", "::"):
+        hosts.add(address)
+    origins = {f"{h}:{port}" for h in hosts}
+    for e in extra:
+        e = str(e).strip()
+        if not e or "*" in e:
+            raise ParameterError("--allow-websocket-origin", f"expected HOST or HOST:PORT without wildcards, got {e!r}")
+        origins.add(e if ":" in e else f"{e}:{port}")
+    return sorted(origins)
+
+
 def run(args):
     from .. import load_scene
 
     if not 0 <= args.port <= 65535:
         raise ParameterError("--port", f"must be 0..65535, got {args.port}")
+    if args.port == 0:
+        with socket.socket() as s:
+            s.bind((args.address if args.address not in ("0.0.0.0", "") else "", 0))
+            args.port = s.getsockname()[1]
     scene = None
     if args.scene:
         scene = load_scene(args.scene)  # validate now: a clear error, not a broken page
@@ -48,12 +151,14 @@ def run(args):
     main = _import_app()
     import panel as pn
 
-    main.configure(scene)
-    origins = [f"{host}:{args.port}" for host in ("localhost", "127.0.0.1", args.address)] + list(args.allow_origin)
-    if args.address == "0.0.0.0":
-        origins.append("*")
-    print(f"camsim explorer on http://{'localhost' if args.address in ('127.0.0.1', '0.0.0.0') else args.address}:{args.port}/"
-          " (Ctrl-C to stop)", flush=True)
+    limits = limits_from(args)
+    main.configure(scene, limits=limits, upload=not args.no_upload)
+    origins = allowed_origins(args.address, args.port, args.allow_origin)
+    idle_ms = int(args.session_idle * 1000)
+    print(f"camsim explorer on http://{public_host(args.address)}:{args.port}/ (Ctrl-C to stop)", flush=True)
     pn.serve(main.create_app, port=args.port, address=args.address, show=args.show,
-             websocket_origin=sorted(set(origins)), title="camsim explorer", verbose=False)
+             websocket_origin=origins, title="camsim explorer", verbose=False,
+             websocket_max_message_size=WEBSOCKET_MAX_MESSAGE_BYTES,
+             unused_session_lifetime_milliseconds=idle_ms,
+             check_unused_sessions_milliseconds=max(500, min(idle_ms, 10_000)))
     return 0

@@ -23,8 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FileFormatError
+from .files import MAX_TEXT_BYTES, read_regular
 
-__all__ = ["parse_tags", "read_tagged", "TaggedFile"]
+__all__ = ["parse_tags", "read_tagged", "TaggedFile", "group_numbers", "group_number"]
 
 _SPLIT = re.compile(r"\r\n|\r|\n")
 
@@ -55,12 +56,13 @@ class TaggedFile(dict):
             raise FileFormatError(self.path, f"required tag #Sim{name} is missing ({what})")
         return self[key]
 
-    def number(self, name, default=None, required=False):
-        """One number from a section or a field."""
+    def number(self, name, default=None, required=False, *, integer=False, positive=False, minimum=None):
+        """One finite number from a section or a field (see :func:`checked_number` for the checks)."""
         value = self.require(name) if required else self.get_tag(name)
         if value is None:
             return default
-        return _first_number(self.path, name, value)
+        v = _first_number(self.path, name, value)
+        return checked_number(self.path, f"#Sim{name}", [v], integer=integer, positive=positive, minimum=minimum)
 
     def text(self, name, default=""):
         value = self.get_tag(name)
@@ -74,9 +76,12 @@ class TaggedFile(dict):
 def _numbers(path, name, lines):
     tokens = " ".join(lines if isinstance(lines, list) else [str(lines)]).split()
     try:
-        return np.array([float(t) for t in tokens], dtype=float)
+        values = np.array([float(t) for t in tokens], dtype=float)
     except ValueError as exc:
         raise FileFormatError(path, f"tag #Sim{name} should hold numbers: {exc}") from None
+    if not np.all(np.isfinite(values)):
+        raise FileFormatError(path, f"tag #Sim{name} holds NaN or infinite values; expected finite numbers")
+    return values
 
 
 def _first_number(path, name, value):
@@ -104,6 +109,36 @@ def group_numbers(tagged, group, field, required=True):
     if required:
         raise FileFormatError(tagged.path, f"required field ##Sim{field} of #Sim{group} is missing")
     return None
+
+
+def group_number(tagged, group, field, *, integer=False, positive=False, minimum=None, required=True):
+    """The first number of field ``##Sim<field>`` of ``group``, checked.
+
+    ``integer`` refuses fractions (a height of 2.5 is an error, never
+    truncated), ``positive`` refuses zero and negatives, ``minimum`` sets
+    an inclusive lower bound. Returns ``None`` for a missing optional field.
+    """
+    values = group_numbers(tagged, group, field, required=required)
+    if values is None:
+        return None
+    return checked_number(tagged.path, f"#Sim{group} ##Sim{field}", values, integer=integer, positive=positive, minimum=minimum)
+
+
+def checked_number(path, where, values, *, integer=False, positive=False, minimum=None):
+    """The first of ``values`` (finite), checked as in :func:`group_number`."""
+    arr = np.asarray(values, float).ravel()
+    if arr.size == 0:
+        raise FileFormatError(path, f"{where} is empty, expected a number")
+    v = float(arr[0])
+    if not np.isfinite(v):
+        raise FileFormatError(path, f"{where} is {v}, expected a finite number")
+    if integer and v != round(v):
+        raise FileFormatError(path, f"{where} is {v:g}, expected a whole number")
+    if positive and v <= 0:
+        raise FileFormatError(path, f"{where} is {v:g}, expected a positive number")
+    if minimum is not None and v < minimum:
+        raise FileFormatError(path, f"{where} is {v:g}, expected at least {minimum:g}")
+    return int(round(v)) if integer else v
 
 
 def parse_tags(text, path="<text>"):
@@ -140,11 +175,14 @@ def parse_tags(text, path="<text>"):
                 i += 1
             dims = header.split()
             try:
-                rows, cols = int(float(dims[0])), int(float(dims[1]))
+                rows, cols = float(dims[0]), float(dims[1])
+                values = [float(v) for v in dims[2:]]
             except (IndexError, ValueError):
                 raise FileFormatError(path, f"matrix #Sim#{name} should start with 'rows cols', found {header!r}") from None
+            if not all(np.isfinite(d) and d >= 0 and d == int(d) for d in (rows, cols)):
+                raise FileFormatError(path, f"matrix #Sim#{name} has size {header!r}; expected two whole numbers >= 0")
+            rows, cols = int(rows), int(cols)
             need = rows * cols
-            values = [float(v) for v in dims[2:]] if len(dims) > 2 else []
             while len(values) < need and i < n:
                 t = lines[i].strip()
                 if t.startswith("#"):
@@ -156,7 +194,10 @@ def parse_tags(text, path="<text>"):
                     raise FileFormatError(path, f"matrix #Sim#{name}: non-numeric line {t!r}") from None
             if len(values) < need:
                 raise FileFormatError(path, f"matrix #Sim#{name} is truncated: {len(values)} of {rows} x {cols} values")
-            out[name] = np.array(values[:need], dtype=float).reshape(rows, cols)
+            matrix = np.array(values[:need], dtype=float).reshape(rows, cols)
+            if not np.all(np.isfinite(matrix)):
+                raise FileFormatError(path, f"matrix #Sim#{name} holds NaN or infinite values; expected finite numbers")
+            out[name] = matrix
             continue
         if s.startswith("##Sim"):
             body = s[5:].split(None, 1)
@@ -210,11 +251,30 @@ def parse_tags(text, path="<text>"):
     return out
 
 
-def read_tagged(path):
-    """Read and parse a tagged file; a missing or unreadable file gets a clear error."""
+def read_tagged(path, shown=None):
+    """Read and parse a tagged file; a missing, special or oversized file gets a clear error.
+
+    ``shown`` is the name the user knows the file by (default: ``path``); it
+    is the one every error names.
+    """
     p = Path(path)
-    try:
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise FileFormatError(p, f"cannot read: {exc.strerror or exc}") from None
-    return parse_tags(raw.decode("latin-1"), path=p)
+    raw = read_regular(p, max_bytes=MAX_TEXT_BYTES, shown=shown)
+    return parse_tags(raw.decode("latin-1"), path=p if shown is None else shown)
+
+
+#: Most wavelength samples a file may declare (a guard against absurd headers, not a physical limit).
+MAX_SAMPLES = 4096
+
+
+def wavelength_sampling(tagged, group="WavelengthSampling"):
+    """Wavelengths (nm) of group ``#Sim<group>`` (``##SimStart``, ``##SimStep``, ``##SimNumberSamples``), checked.
+
+    Start and step must be finite and positive, the count a whole number
+    from 1 to :data:`MAX_SAMPLES`.
+    """
+    start = group_number(tagged, group, "Start", positive=True)
+    step = group_number(tagged, group, "Step", positive=True)
+    count = group_number(tagged, group, "NumberSamples", integer=True, positive=True)
+    if count > MAX_SAMPLES:
+        raise FileFormatError(tagged.path, f"#Sim{group} ##SimNumberSamples is {count}, more than {MAX_SAMPLES}")
+    return start + step * np.arange(count)

@@ -10,7 +10,8 @@ import numpy as np
 from ..datasets import SIMTOOLBOX
 from ..datasets.illuminants import illuminant as named_illuminant
 from ..errors import FileFormatError, ParameterError
-from ..io.simtoolbox import group_numbers, read_tagged
+from ..io.files import check_regular, member_path, read_regular
+from ..io.simtoolbox import group_number, group_numbers, read_tagged, wavelength_sampling
 from ..spectra import Spectrum, sampling_wavelengths
 from .scene import Scene, check_radiance
 from .synthetic import macbeth_scene, stripe_scene
@@ -50,57 +51,98 @@ def load_scene(name_or_path, *, negative="error"):
     if low == "stripes":
         return stripe_scene()
     path = Path(key)
-    if not path.exists():
+    if not os.path.lexists(path):
         raise FileFormatError(path, f"no such file, and not a shipped scene name ({', '.join(SCENE_NAMES)})")
     suffix = path.suffix.lower()
     if suffix == ".simg":
-        return read_simg(path, negative=negative)
+        return read_simg(path, negative=negative, shown=path)
     if suffix == ".npz":
-        return read_npz_scene(path, negative=negative)
+        return read_npz_scene(path, negative=negative, shown=path)
     raise FileFormatError(path, "unknown scene format: expected a .Simg header with its planes, or an .npz")
 
 
-def _camera_angular_resolution(simg_path, tagged):
-    cam_name = tagged.text("CameraFile")
+#: Shipped hyperspectral cameras a ``#SimCameraFile`` may name when the file is not beside the header.
+SHIPPED_CAMERA_FILES = tuple(sorted(p.name for p in (SIMTOOLBOX / "cameras").glob("*.Scam")))
+
+
+def _shown(path, shown):
+    return Path(path).name if shown is None else shown
+
+
+def _camera_angular_resolution(simg_path, tagged, shown):
+    """Pixels per degree (x, y) of the hyperspectral camera ``#SimCameraFile`` names.
+
+    The file is looked for beside the header (never outside its folder) and
+    then among the shipped cameras by name; nothing else of the file
+    system is ever opened.
+    """
+    cam_name = tagged.text("CameraFile").strip()
     if not cam_name:
-        raise FileFormatError(simg_path, "required tag #SimCameraFile is missing (the hyperspectral camera, for its angular resolution)")
-    for folder in (Path(simg_path).parent, SIMTOOLBOX / "cameras"):
-        cam_path = folder / cam_name
-        if cam_path.exists():
-            cam = read_tagged(cam_path)
-            x = group_numbers(cam, "AngularResolution", "X")[0]
-            y = group_numbers(cam, "AngularResolution", "Y")[0]
-            return (x, y)
-    raise FileFormatError(simg_path, f"camera file {cam_name!r} named by #SimCameraFile not found beside the header or in the shipped cameras")
+        raise FileFormatError(shown, "required tag #SimCameraFile is missing (the hyperspectral camera, for its angular resolution)")
+    cam_path = member_path(Path(simg_path).parent, cam_name, shown=shown, field="#SimCameraFile")
+    cam_shown = f"{shown}: camera file {cam_name}"
+    if os.path.lexists(cam_path):
+        cam = read_tagged(cam_path, shown=cam_shown)
+    elif cam_name in SHIPPED_CAMERA_FILES:
+        cam = read_tagged(SIMTOOLBOX / "cameras" / cam_name, shown=cam_name)
+    else:
+        raise FileFormatError(shown, f"camera file {cam_name!r} named by #SimCameraFile is neither beside the header "
+                                     f"nor a shipped camera ({', '.join(SHIPPED_CAMERA_FILES)})")
+    x = group_number(cam, "AngularResolution", "X", positive=True)
+    y = group_number(cam, "AngularResolution", "Y", positive=True)
+    return (x, y)
 
 
-def read_simg(path, *, name=None, negative="error"):
+def simg_shape(path, *, shown=None):
+    """(height, width, planes) a ``.Simg`` header declares, checked, without reading any plane."""
+    shown = _shown(path, shown)
+    t = read_tagged(path, shown=shown)
+    return _simg_shape(t)
+
+
+def _simg_shape(t):
+    h = t.number("Height", required=True, integer=True, positive=True)
+    w = t.number("Width", required=True, integer=True, positive=True)
+    n = wavelength_sampling(t).size
+    return h, w, n
+
+
+def read_simg(path, *, name=None, negative="error", shown=None, max_values=None):
     """Read a hyperspectral ``.Simg`` header and its planes (16-bit big-endian, one file per wavelength).
 
     Each plane times its ``#Sim#ImageFactors`` entry is calibrated radiance.
+    Plane files (``#SimImageRoot`` followed by the wavelength in nm) and the
+    camera file must lie beside the header: absolute names and ``..`` are
+    refused before anything is opened. ``shown`` is the name errors give
+    the header (default: its file name); ``max_values`` refuses a scene of
+    more than that many values (pixels x planes) before allocating it.
     """
     path = Path(path)
-    t = read_tagged(path)
-    h = int(t.number("Height", required=True))
-    w = int(t.number("Width", required=True))
-    start = group_numbers(t, "WavelengthSampling", "Start")[0]
-    step = group_numbers(t, "WavelengthSampling", "Step")[0]
-    count = int(group_numbers(t, "WavelengthSampling", "NumberSamples")[0])
+    shown = _shown(path, shown)
+    t = read_tagged(path, shown=shown)
+    h, w, count = _simg_shape(t)
+    if max_values is not None and h * w * count > max_values:
+        raise FileFormatError(shown, f"declares {h} x {w} pixels x {count} planes = {h * w * count} values, "
+                                     f"more than the {max_values} allowed")
+    wls = wavelength_sampling(t)
     factors = np.asarray(t.require("ImageFactors", "one calibration factor per plane"), float).ravel()
     if factors.size != count:
-        raise FileFormatError(path, f"#Sim#ImageFactors has {factors.size} factors for {count} planes")
-    distance = t.number("InputCameraDistance", required=True)
-    wls = sampling_wavelengths(start, step, count)
-    root = t.text("ImageRoot")
+        raise FileFormatError(shown, f"#Sim#ImageFactors has {factors.size} factors for {count} planes")
+    if np.any(factors < 0):
+        raise FileFormatError(shown, "#Sim#ImageFactors holds negative factors; expected non-negative calibration factors")
+    distance = t.number("InputCameraDistance", required=True, positive=True)
+    root = t.text("ImageRoot").strip()
+    angular = _camera_angular_resolution(path, t, shown)
     cube = np.empty((h, w, count))
     for k, wl in enumerate(wls):
-        plane = path.parent / f"{root}{int(round(wl))}"
-        try:
-            raw = plane.read_bytes()
-        except OSError:
-            raise FileFormatError(plane, f"plane for {wl:g} nm is missing (expected beside {path.name})") from None
+        plane_name = f"{root}{int(round(wl))}"
+        plane = member_path(path.parent, plane_name, shown=shown, field="#SimImageRoot")
+        if not os.path.lexists(plane):
+            raise FileFormatError(shown, f"plane file {plane_name!r} for {wl:g} nm is missing (expected beside the header)")
+        raw = read_regular(plane, max_bytes=2 * h * w, shown=f"{shown}: plane {plane_name}")
         if len(raw) != 2 * h * w:
-            raise FileFormatError(plane, f"plane is {len(raw)} bytes, expected {2 * h * w} ({h} x {w} 16-bit values): truncated or wrong size")
+            raise FileFormatError(f"{shown}: plane {plane_name}", f"is {len(raw)} bytes, expected {2 * h * w} "
+                                                                  f"({h} x {w} 16-bit values): truncated or wrong size")
         cube[:, :, k] = np.frombuffer(raw, dtype=">u2").reshape(h, w) * factors[k]
     illum = None
     act = t.get_tag("ActualIlluminant")
@@ -108,51 +150,121 @@ def read_simg(path, *, name=None, negative="error"):
         spd = group_numbers(t, "ActualIlluminant", "Spd", required=False)
         s = group_numbers(t, "ActualIlluminant", "S", required=False)
         if spd is not None and s is not None and s.size >= 3 and spd.size == int(s[2]):
+            if s[0] <= 0 or s[1] <= 0 or s[2] != int(s[2]):
+                raise FileFormatError(shown, f"#SimActualIlluminant ##SimS is {s[:3].tolist()}; expected [start step count], all positive")
+            if np.any(spd < 0):
+                raise FileFormatError(shown, "#SimActualIlluminant ##SimSpd holds negative values; expected a non-negative spectrum")
             illum = Spectrum(sampling_wavelengths(*s[:3]), spd, "measured")
     label = name or path.stem
-    cube = check_radiance(cube, str(path), negative)
-    return Scene(cube, wls, distance, _camera_angular_resolution(path, t), "W/sr/m^2 per band", illum, label, t.text("Comments"))
+    cube = check_radiance(cube, shown, negative)
+    try:
+        return Scene(cube, wls, distance, angular, "W/sr/m^2 per band", illum, label, t.text("Comments"))
+    except ParameterError as exc:
+        raise FileFormatError(shown, str(exc)) from None
 
 
-def read_npz_scene(path, *, negative="error"):
+#: Most members an ``.npz`` scene may hold (it needs five at most).
+NPZ_MAX_MEMBERS = 64
+
+
+def npz_headers(path, *, shown=None, max_members=NPZ_MAX_MEMBERS):
+    """``{key: (shape, dtype)}`` of every array of an ``.npz``, from the array headers alone.
+
+    Reads the zip's central directory and the first bytes of each ``.npy``
+    member (:mod:`numpy.lib.format`), never the data, so that a file
+    declaring a huge array is refused before anything is allocated.
+    """
+    import zipfile
+
+    from numpy.lib import format as npy
+
+    shown = _shown(path, shown)
+    check_regular(path, shown)
+    try:
+        with zipfile.ZipFile(path) as z:
+            infos = z.infolist()
+            if len(infos) > max_members:
+                raise FileFormatError(shown, f"holds {len(infos)} members, more than the {max_members} an .npz scene may have")
+            out = {}
+            for info in infos:
+                key = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
+                with z.open(info) as f:
+                    version = npy.read_magic(f)
+                    if version == (1, 0):
+                        shape, fortran, dtype = npy.read_array_header_1_0(f)
+                    elif version == (2, 0):
+                        shape, fortran, dtype = npy.read_array_header_2_0(f)
+                    else:
+                        raise ValueError(f"unsupported .npy version {version}")
+                out[key] = (tuple(int(d) for d in shape), np.dtype(dtype))
+            return out
+    except FileFormatError:
+        raise
+    except Exception as exc:  # zipfile.BadZipFile, a bad .npy header, EOFError ...
+        raise FileFormatError(shown, f"cannot read as .npz: {exc}") from None
+
+
+def _npz_number_array(key, dtype, shown):
+    if dtype.hasobject or dtype.kind not in "biuf":
+        raise FileFormatError(shown, f"{key!r} must hold real numbers, found dtype {dtype}")
+
+
+def read_npz_scene(path, *, name=None, negative="error", shown=None, max_values=None):
     """Read an ``.npz`` scene: ``data`` (H, W, N), ``wavelengths`` (N,), optional
-    ``distance``, ``angular_resolution`` (2,) and ``illuminant`` (N,). Never unpickles."""
+    ``distance`` (one number, m), ``angular_resolution`` (2,) and ``illuminant`` (N,).
+
+    Every array's shape and type are checked from its header before any
+    data are read (``max_values`` bounds H x W x N); never unpickles.
+    ``shown`` is the name errors give the file (default: its file name).
+    """
     path = Path(path)
+    shown = _shown(path, shown)
+    heads = npz_headers(path, shown=shown)
+    for key in ("data", "wavelengths"):
+        if key not in heads:
+            raise FileFormatError(shown, f"required key {key!r} is missing (keys: {', '.join(sorted(heads)) or 'none'})")
+    expected = {"data": 3, "wavelengths": 1, "distance": 0, "angular_resolution": 1, "illuminant": 1}
+    for key, (shape, dtype) in heads.items():
+        if key not in expected:
+            continue
+        _npz_number_array(key, dtype, shown)
+        if key == "distance" and int(np.prod(shape)) != 1:
+            raise FileFormatError(shown, f"'distance' must be one number (m), got shape {shape}")
+        elif key != "distance" and len(shape) != expected[key]:
+            raise FileFormatError(shown, f"{key!r} must have {expected[key]} dimension(s), got shape {shape}")
+    h, w, n = heads["data"][0]
+    if min(h, w, n) < 1:
+        raise FileFormatError(shown, f"'data' is {h} x {w} x {n}; expected at least one pixel and one plane")
+    if max_values is not None and h * w * n > max_values:
+        raise FileFormatError(shown, f"'data' declares {h} x {w} pixels x {n} planes = {h * w * n} values, "
+                                     f"more than the {max_values} allowed")
+    if heads["wavelengths"][0] != (n,):
+        raise FileFormatError(shown, f"'wavelengths' has shape {heads['wavelengths'][0]} for {n} planes")
+    if "angular_resolution" in heads and heads["angular_resolution"][0] != (2,):
+        raise FileFormatError(shown, "'angular_resolution' must hold two numbers (x, y) in pixels per degree")
+    if "illuminant" in heads and heads["illuminant"][0] != (n,):
+        raise FileFormatError(shown, f"'illuminant' has shape {heads['illuminant'][0]} for {n} wavelengths")
     try:
         with np.load(path, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-    except ValueError as exc:
-        raise FileFormatError(path, f"not a plain-array .npz ({exc})") from None
-    except (OSError, EOFError) as exc:
-        raise FileFormatError(path, f"cannot read as .npz: {exc}") from None
-    except Exception as exc:  # zipfile.BadZipFile and friends
-        raise FileFormatError(path, f"cannot read as .npz: {exc}") from None
-    for key in ("data", "wavelengths"):
-        if key not in arrays:
-            raise FileFormatError(path, f"required key {key!r} is missing (keys: {', '.join(sorted(arrays)) or 'none'})")
-    data = arrays["data"]
-    if data.ndim != 3:
-        raise FileFormatError(path, f"'data' must be (H, W, N), got shape {data.shape}")
-    wls = np.asarray(arrays["wavelengths"], float).ravel()
-    if wls.size != data.shape[2]:
-        raise FileFormatError(path, f"'wavelengths' has {wls.size} entries for {data.shape[2]} planes")
-    if not np.issubdtype(data.dtype, np.number):
-        raise FileFormatError(path, f"'data' must be numeric, got {data.dtype}")
-    distance = float(arrays["distance"]) if "distance" in arrays else 1.0
-    ar = tuple(np.asarray(arrays.get("angular_resolution", [57.3, 57.3]), float).ravel()[:2])
-    if len(ar) != 2:
-        raise FileFormatError(path, "'angular_resolution' must hold two numbers (x, y) in pixels per degree")
+            arrays = {k: z[k] for k in expected if k in heads}
+    except Exception as exc:  # a truncated member, a bad CRC ...
+        raise FileFormatError(shown, f"cannot read as .npz: {exc}") from None
+    wls = arrays["wavelengths"].astype(float)
+    if not np.all(np.isfinite(wls)) or np.any(wls <= 0) or np.any(np.diff(wls) <= 0):
+        raise FileFormatError(shown, "'wavelengths' must be finite, positive and strictly increasing (nm)")
+    distance = float(arrays["distance"].ravel()[0]) if "distance" in arrays else 1.0
+    ar = tuple(arrays["angular_resolution"].astype(float)) if "angular_resolution" in arrays else (57.3, 57.3)
     illum = None
     if "illuminant" in arrays:
-        iv = np.asarray(arrays["illuminant"], float).ravel()
-        if iv.size != wls.size:
-            raise FileFormatError(path, f"'illuminant' has {iv.size} values for {wls.size} wavelengths")
+        iv = arrays["illuminant"].astype(float)
+        if not np.all(np.isfinite(iv)) or np.any(iv < 0):
+            raise FileFormatError(shown, "'illuminant' must be finite and non-negative (a power spectrum)")
         illum = Spectrum(wls, iv, "from file")
-    cube = check_radiance(data.astype(float), str(path), negative)
+    cube = check_radiance(arrays["data"].astype(float), shown, negative)
     try:
-        return Scene(cube, wls, distance, ar, "W/sr/m^2 per band", illum, path.stem, "")
+        return Scene(cube, wls, distance, ar, "W/sr/m^2 per band", illum, name or path.stem, "")
     except ParameterError as exc:
-        raise FileFormatError(path, str(exc)) from None
+        raise FileFormatError(shown, str(exc)) from None
 
 
 def save_npz_scene(scene, path):
