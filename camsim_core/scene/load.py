@@ -14,6 +14,8 @@ from ..io.files import check_regular, member_path, read_regular
 from ..io.simtoolbox import group_number, group_numbers, read_tagged, wavelength_sampling
 from ..spectra import Spectrum, sampling_wavelengths
 from .scene import Scene, check_radiance
+from .charts import CHART_NAMES, chart
+from .photo import PHOTO_SUFFIXES, SAMPLE_PHOTOS
 from .synthetic import macbeth_scene, stripe_scene
 
 __all__ = ["load_scene", "read_simg", "read_npz_scene", "save_npz_scene", "SCENE_NAMES"]
@@ -22,12 +24,21 @@ _SHIPPED = {
     "cacaphony290": ("Cacaphony290/Cacaphony290.Simg", "cacaphony"),
     "bfgb128": ("BFGB_128/BFGB_128.Simg", "bfgb"),
 }
-SCENE_NAMES = tuple(_SHIPPED) + ("macbeth", "stripes")
+SCENE_NAMES = tuple(_SHIPPED) + ("macbeth", "stripes") + CHART_NAMES
 _CACHE = {}
 
 
 def load_scene(name_or_path, *, negative="error"):
-    """A :class:`Scene` from a shipped name (``SCENE_NAMES``) or a ``.Simg`` / ``.npz`` path.
+    """A :class:`Scene` from a shipped name or chart (``SCENE_NAMES``), or a path.
+
+    Paths by extension: ``.Simg``, ``.npz``, ENVI ``.hdr``
+    (:mod:`~camsim_core.scene.envi`), MATLAB ``.mat`` v5 or v7.3
+    (:mod:`~camsim_core.scene.matlab`: ICVL, ARAD, Harvard, ISETCam), a photo
+    ``.png`` / ``.jpg`` (:mod:`~camsim_core.scene.photo`, a plausible
+    spectrum), or a folder of band PNGs (:mod:`~camsim_core.scene.cave`).
+    Charts (``slanted-edge``, ``zone-plate``, ``uniform``, ``munsell``) come
+    at their default settings (:mod:`~camsim_core.scene.charts`). What a
+    reader had to assume is in ``scene.notices`` (and warned).
 
     Shipped scenes are read once per process and shared (they are read-only).
     ``negative="clip"`` clips negative radiances with a warning instead of
@@ -50,15 +61,39 @@ def load_scene(name_or_path, *, negative="error"):
         return macbeth_scene()
     if low == "stripes":
         return stripe_scene()
+    if low in CHART_NAMES:
+        return chart(low)
+    if low.startswith("photo-") and low[6:] in SAMPLE_PHOTOS:
+        from .photo import read_photo
+
+        return read_photo(low)
     path = Path(key)
     if not os.path.lexists(path):
-        raise FileFormatError(path, f"no such file, and not a shipped scene name ({', '.join(SCENE_NAMES)})")
+        raise FileFormatError(path, f"no such file, and not a shipped scene or chart name ({', '.join(SCENE_NAMES)})")
+    if path.is_dir():
+        from .cave import read_band_folder
+
+        return read_band_folder(path, negative=negative)
     suffix = path.suffix.lower()
     if suffix == ".simg":
         return read_simg(path, negative=negative, shown=path)
     if suffix == ".npz":
         return read_npz_scene(path, negative=negative, shown=path)
-    raise FileFormatError(path, "unknown scene format: expected a .Simg header with its planes, or an .npz")
+    if suffix == ".hdr":
+        from .envi import read_envi
+
+        return read_envi(path, negative=negative)
+    if suffix == ".mat":
+        from .matlab import read_mat
+
+        return read_mat(path, negative=negative)
+    if suffix in PHOTO_SUFFIXES:
+        from .photo import read_photo
+
+        return read_photo(path)
+    raise FileFormatError(
+        path, "unknown scene format: expected a .Simg header with its planes, an .npz, an ENVI .hdr, a MATLAB .mat, "
+        f"a photo ({', '.join(PHOTO_SUFFIXES)}) or a folder of band PNGs")
 
 
 #: Shipped hyperspectral cameras a ``#SimCameraFile`` may name when the file is not beside the header.

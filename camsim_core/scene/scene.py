@@ -57,6 +57,9 @@ class Scene:
     illuminant : Spectrum or None
         The measured scene illuminant, with its own sampling.
     name, comments : str
+    notices : tuple of str
+        What a reader had to assume (default geometry, unknown units): shown
+        to the user beside the scene, never a silent guess.
     """
 
     data: np.ndarray
@@ -67,6 +70,7 @@ class Scene:
     illuminant: Spectrum | None = None
     name: str = ""
     comments: str = ""
+    notices: tuple = ()
 
     def __post_init__(self):
         where = f"scene {self.name!r}" if self.name else "scene"
@@ -90,6 +94,7 @@ class Scene:
         object.__setattr__(self, "wavelengths", w)
         object.__setattr__(self, "angular_resolution", ar)
         object.__setattr__(self, "distance", float(self.distance))
+        object.__setattr__(self, "notices", tuple(str(n) for n in self.notices))
 
     @property
     def shape(self):
@@ -110,4 +115,5 @@ class Scene:
             "radiance_range": [float(self.data.min()), float(self.data.max())],
             "illuminant": None if self.illuminant is None else self.illuminant.name or "known",
             "comments": self.comments,
+            "notices": list(self.notices),
         }
