@@ -4,7 +4,8 @@
 * :mod:`.s_cielab` - S-CIELAB (Zhang & Wandell);
 * :mod:`.viewing` - how the rendered image is viewed: S-CIELAB's samples per degree;
 * :mod:`.block` - registration and block-averaged Delta E*ab (Figure 1.13);
-* :mod:`.real` - the real versus simulated Kodak DCS-200 comparison.
+* :mod:`.real` - the real versus simulated Kodak DCS-200 comparison;
+* :mod:`.sharpness` - ISO 12233 slanted-edge MTF, MTF50, MTF at Nyquist.
 
 Public names: :func:`delta_e`, :func:`scielab`, :func:`block_compare`.
 """
@@ -23,6 +24,7 @@ from .s_cielab import (
 from .viewing import DEFAULT_VIEWING, ORIGINAL_EXAMPLE_VIEWING, Viewing, parse_viewing, viewing_samples_per_degree
 from .block import BlockComparison, Registration, block_average, block_compare, register
 from .real import RealComparison, compare_real
+from .sharpness import NYQUIST, EdgeMTF, edge_angle, edge_mtf, luminance_weights, mtf50, mtf_at, slanted_edge_mtf
 
 __all__ = [
     "METHODS",
@@ -49,4 +51,12 @@ __all__ = [
     "Registration",
     "compare_real",
     "RealComparison",
+    "slanted_edge_mtf",
+    "mtf50",
+    "mtf_at",
+    "edge_mtf",
+    "edge_angle",
+    "luminance_weights",
+    "EdgeMTF",
+    "NYQUIST",
 ]
