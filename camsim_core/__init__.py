@@ -22,6 +22,7 @@ from .simulation import DEFAULT_ARCHITECTURE, auto_exposure, run_stages, simulat
 from .demosaicing import demosaic
 from .rendering import ideal_image, render, to_xyz
 from .io.raw import raw_from_array
+from .io.dng import load_raw, write_dng
 from . import metrics
 
 __version__ = "0.1.0"
@@ -43,6 +44,8 @@ __all__ = [
     "to_xyz",
     "ideal_image",
     "raw_from_array",
+    "load_raw",
+    "write_dng",
     "metrics",
     "DEFAULT_ARCHITECTURE",
     "SCENE_NAMES",

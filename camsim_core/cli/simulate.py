@@ -14,7 +14,7 @@ def register(subparsers):
         "simulate",
         help="simulate a camera image of a scene",
         description="Simulate what CAMERA records of SCENE. Writes a raw 8/16-bit TIFF or PNG (or .npy for "
-        "unquantized data) with a JSON sidecar; with --render, writes the displayed 8-bit PNG instead.",
+        "unquantized data) with a JSON sidecar, or a CFA DNG; with --render, writes the displayed 8-bit PNG instead.",
     )
     p.add_argument("--scene", required=True, help="shipped scene name or a .Simg / .npz path")
     p.add_argument("--camera", required=True, help="shipped camera name or a .Scam path")
@@ -33,7 +33,7 @@ def register(subparsers):
     p.add_argument("--render", metavar="METHOD", help="render for display (baseline, illuminant); implies --demosaic bilinear for a mosaic")
     p.add_argument("--illuminant", help="for --render illuminant: gray-world, max-rgb, or omit for the scene's known one")
     p.add_argument("--monitor", default="simtoolbox-test", help="monitor for --render (default simtoolbox-test)")
-    p.add_argument("--out", required=True, help="output file: .tif, .png or .npy")
+    p.add_argument("--out", required=True, help="output file: .tif, .png, .npy, or .dng (a CFA DNG raw converters open)")
     p.set_defaults(func=run)
 
 
@@ -42,8 +42,11 @@ def run(args):
     from ..io.output import RAW_SUFFIXES, write_image
 
     out = Path(args.out)
-    if out.suffix.lower() not in RAW_SUFFIXES:
-        raise ParameterError("--out", f"{out.name}: expected a .tif, .png or .npy file name")
+    dng = out.suffix.lower() == ".dng"
+    if out.suffix.lower() not in RAW_SUFFIXES and not dng:
+        raise ParameterError("--out", f"{out.name}: expected a .tif, .png, .npy or .dng file name")
+    if dng and (args.render or args.demosaic or args.no_mosaic or args.unquantized):
+        raise ParameterError("--out", f"{out.name}: a DNG holds the raw mosaic; drop --render, --demosaic, --no-mosaic and --unquantized")
     if args.render and out.suffix.lower() not in (".png", ".tif", ".tiff"):
         raise ParameterError("--out", f"{out.name}: a rendered image is written as .png or .tif")
     scene = load_scene(args.scene)
@@ -74,6 +77,12 @@ def run(args):
         from .. import load_monitor, render
 
         image = render(image, load_monitor(args.monitor), method=args.render, illuminant=args.illuminant)
+    if dng:
+        from ..io.dng import write_dng
+
+        write_dng(image, out, model=camera.name or "camera")
+        print(f"wrote {out} ({image.data.shape[0]} x {image.data.shape[1]} CFA DNG, {image.bits}-bit)")
+        return 0
     write_image(image, out)
     print(f"wrote {out} ({' x '.join(str(s) for s in image.data.shape)}, {image.space}"
           f"{', mosaiced' if image.mosaiced else ''}{f', {image.bits}-bit' if image.quantized else ''}) and {out.name}.json")

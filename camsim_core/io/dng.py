@@ -1,0 +1,226 @@
+"""Raw files out and in: a simulated raw as a CFA DNG (tifffile), and real raws through rawpy (LibRaw).
+
+:func:`write_dng` writes one uncompressed CFA image with the DNG 1.4 tags a
+raw converter needs (Adobe, *Digital Negative Specification* 1.4.0.0):
+
+* ``CFARepeatPatternDim`` / ``CFAPattern`` from the camera's mosaic tile,
+  ``CFAPlaneColor`` R, G, B (sensors ranked by their mean wavelength,
+  longest = red) and ``CFALayout`` 1 (rectangular);
+* ``BlackLevel`` (the image's ``black_level``, 0 for camsim's default
+  camera) and ``WhiteLevel`` 2^bits - 1;
+* ``ColorMatrix1`` (XYZ -> camera) fitted by least squares from the camera's
+  sensitivities over the 24 Macbeth reflectances under D65
+  (``CalibrationIlluminant1`` = D65), normalized as the specification asks
+  (D65's white, Y = 1, gives a largest camera channel of 1), and
+  ``AsShotNeutral`` the camera's response to that white;
+* ``ImageDescription``: camsim's JSON metadata of the image (sensitivities,
+  tile, exposure...), so that :func:`load_raw` of a camsim DNG gets them back.
+
+Written with tifffile (there is no maintained Python DNG writer on PyPI);
+validated by LibRaw itself (``tests/test_dng.py``): rawpy opens the file,
+reports the pattern and levels, and demosaics it.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import FileFormatError, ParameterError
+from .output import atomic_write
+
+__all__ = ["write_dng", "load_raw", "color_matrix", "plane_order", "MAX_RAW_BYTES"]
+
+#: Largest raw file :func:`load_raw` opens (LibRaw then applies its own allocation limits).
+MAX_RAW_BYTES = 1 << 30
+_LETTERS = {"R": 0, "G": 1, "B": 2, "C": 3, "M": 4, "Y": 5, "W": 6}
+
+
+def plane_order(sensitivities, wavelengths):
+    """For 3 sensors: the DNG colour (0 R, 1 G, 2 B) of each, ranked by its mean wavelength (longest = R)."""
+    s = np.abs(np.asarray(sensitivities, float))
+    centroid = s @ np.asarray(wavelengths, float) / s.sum(axis=1)
+    rank = np.argsort(np.argsort(-centroid, kind="stable"), kind="stable")
+    return rank  # sensor i -> colour rank[i]
+
+
+def color_matrix(sensitivities, wavelengths):
+    """(3, 3) XYZ -> camera matrix (rows in R, G, B plane order), DNG-normalized; and the D65 white's camera values.
+
+    Least squares over the Macbeth chart's 24 reflectances under CIE D65.
+    """
+    from ..datasets.illuminants import illuminant
+    from ..datasets.sensors import cie1931_xyz
+    from ..datasets.surfaces import macbeth
+    from ..spectra import resample
+
+    w = np.asarray(wavelengths, float)
+    t = np.asarray(sensitivities, float)
+    mw, refl, _ = macbeth()
+    r = resample(mw, refl, w)
+    r[:, w > mw[-1]] = refl[:, -1:]
+    e = illuminant("D65").per_band(w)
+    radiance = r * e
+    cmf = cie1931_xyz().on(w)
+    xyz = radiance @ cmf.T
+    cam = radiance @ t.T
+    m, *_ = np.linalg.lstsq(xyz, cam, rcond=None)  # cam ~ xyz @ m
+    m = m.T[np.argsort(plane_order(t, w))]  # rows in R, G, B order
+    white_xyz = cmf @ e
+    white_xyz = white_xyz / white_xyz[1]
+    white_cam = m @ white_xyz
+    scale = white_cam.max()
+    if not scale > 0:
+        raise ParameterError("sensitivities", "give no response to D65: cannot build a DNG colour matrix")
+    return m / scale, white_cam / scale
+
+
+def _srational(values, denominator=10000):
+    out = []
+    for v in np.ravel(values):
+        fr = Fraction(float(v)).limit_denominator(denominator)
+        out += [fr.numerator, fr.denominator]
+    return out
+
+
+def _check_raw(image):
+    if not getattr(image, "mosaiced", False) or image.tile is None:
+        raise ParameterError("out", "a DNG holds a raw mosaic; write the image before demosaicing (no --demosaic/--render)")
+    if image.tile.ndim != 2 or np.asarray(image.data).ndim != 2:
+        raise ParameterError("out", "a DNG holds one mosaic plane; tiered (field-sequential) tiles cannot be written")
+    if image.n_sensors != 3:
+        raise ParameterError("out", f"a DNG CFA here holds 3 colours (R, G, B); the camera has {image.n_sensors} sensors")
+    if image.tile.shape[0] > 8 or image.tile.shape[1] > 8:
+        raise ParameterError("out", f"the tile is {image.tile.shape}; DNG readers expect a CFA repeat of at most 8 x 8")
+    if not image.quantized or image.bits is None or image.bits > 16:
+        raise ParameterError("out", "a DNG holds integers of up to 16 bits; simulate with --bits 1..16 (not --unquantized)")
+
+
+def write_dng(image, path, *, model="camsim"):
+    """Write a simulated raw :class:`~camsim_core.image.CameraImage` as a CFA DNG (see the module docstring)."""
+    import tifffile
+
+    path = Path(path)
+    _check_raw(image)
+    colours = plane_order(image.sensitivities, image.wavelengths)
+    pattern = colours[np.asarray(image.tile)]
+    matrix, neutral = color_matrix(image.sensitivities, image.wavelengths)
+    white = 2**image.bits - 1
+    black = float(getattr(image, "black_level", 0) or image.extra.get("black_level", 0) or 0)
+    data = np.clip(np.round(np.asarray(image.data, float)), 0, white).astype(np.uint16)
+    meta = image.metadata()
+    meta["black_level"] = black
+    rows, cols = pattern.shape
+    tags = [
+        (33421, "H", 2, (rows, cols), True),  # CFARepeatPatternDim
+        (33422, "B", rows * cols, tuple(int(v) for v in pattern.ravel()), True),  # CFAPattern
+        (50706, "B", 4, (1, 4, 0, 0), True),  # DNGVersion
+        (50707, "B", 4, (1, 1, 0, 0), True),  # DNGBackwardVersion
+        (50708, "s", 0, f"camsim {model}", True),  # UniqueCameraModel
+        (50710, "B", 3, (0, 1, 2), True),  # CFAPlaneColor
+        (50711, "H", 1, (1,), True),  # CFALayout: rectangular
+        (50713, "H", 2, (1, 1), True),  # BlackLevelRepeatDim
+        (50714, "I", 1, (int(round(black)),), True),  # BlackLevel
+        (50717, "I", 1, (white,), True),  # WhiteLevel
+        (50721, "q", 9, tuple(_srational(matrix)), True),  # ColorMatrix1 (SRATIONAL)
+        (50778, "H", 1, (21,), True),  # CalibrationIlluminant1: D65
+        (50728, "Q", 3, tuple(_srational(neutral)), True),  # AsShotNeutral (RATIONAL)
+        (271, "s", 0, "camsim", True),  # Make
+        (272, "s", 0, model, True),  # Model
+        (274, "H", 1, (1,), True),  # Orientation
+    ]
+    codes = {"B": 1, "s": 2, "H": 3, "I": 4, "Q": 5, "q": 10}  # TIFF types; Q RATIONAL, q SRATIONAL
+    tags = [(c, codes[d], n, v, w) for c, d, n, v, w in tags]
+
+    def write(f):
+        buf = io.BytesIO()
+        tifffile.imwrite(buf, data, photometric=32803, subfiletype=0, software="camsim",
+                         description=json.dumps(meta), extratags=tags, metadata=None)
+        f.write(buf.getvalue())
+
+    atomic_write(path, write)
+    return path
+
+
+def _camsim_metadata(path):
+    """camsim's JSON metadata from a DNG's ImageDescription, or None."""
+    import tifffile
+
+    try:
+        with tifffile.TiffFile(path) as tf:
+            desc = tf.pages[0].description
+    except Exception:  # not a TIFF-based raw: no camsim metadata
+        return None
+    try:
+        meta = json.loads(desc)
+    except (TypeError, ValueError):
+        return None
+    return meta if isinstance(meta, dict) and "sensitivities" in meta and "tile" in meta else None
+
+
+def load_raw(path):
+    """Read a DNG or camera raw file (any LibRaw reads, through rawpy) as a mosaiced camera image.
+
+    The CFA pattern becomes the tile (R, G, B = sensors 0, 1, 2; LibRaw's
+    second green is green), the per-colour black level is subtracted and
+    ``bits`` follows the white level. A DNG written by camsim brings back
+    its sensitivities, exposure, f-stop, gain, distance and angular
+    resolution from its metadata; another camera's raw has no sensitivities
+    (demosaicing works, rendering needs them: see
+    :func:`~camsim_core.io.raw.raw_from_array`).
+    """
+    import rawpy
+
+    from .raw import raw_from_array
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileFormatError(path, "no such file")
+    size = path.stat().st_size
+    if size > MAX_RAW_BYTES:
+        raise FileFormatError(path, f"{size} bytes is more than the {MAX_RAW_BYTES} a raw file may have")
+    try:
+        with rawpy.imread(str(path)) as raw:
+            if raw.raw_pattern is None or raw.raw_type != rawpy.RawType.Flat:
+                raise FileFormatError(path, "not a colour-filter-array raw (LibRaw found no CFA pattern)")
+            desc = raw.color_desc.decode("ascii", "replace")
+            pattern = np.asarray(raw.raw_pattern)
+            mosaic = np.array(raw.raw_image_visible, dtype=np.float64)
+            black = np.asarray(raw.black_level_per_channel, float)
+            white = float(raw.white_level)
+    except FileFormatError:
+        raise
+    except Exception as exc:  # rawpy.LibRawError and its subclasses, OSError
+        raise FileFormatError(path, f"not a raw file LibRaw can read ({type(exc).__name__}: {exc})") from None
+    letters = [desc[i] if i < len(desc) else "?" for i in range(4)]
+    codes = sorted({_LETTERS.get(c, 7) for c in letters[: int(pattern.max()) + 1]})
+    tile = np.vectorize(lambda i: codes.index(_LETTERS.get(letters[i], 7)))(pattern)
+    # per-pixel black from the per-colour-index levels, then subtract
+    black_map = black[np.tile(pattern, (mosaic.shape[0] // pattern.shape[0] + 1, mosaic.shape[1] // pattern.shape[1] + 1))
+                      [: mosaic.shape[0], : mosaic.shape[1]]]
+    data = np.clip(mosaic - black_map, 0.0, None)
+    bits = int(np.ceil(np.log2(white + 1))) if white > 0 else None
+    meta = _camsim_metadata(path)
+    fields = dict(name=path.stem)
+    sens = wls = None
+    names = None
+    if meta is not None:
+        wls = np.asarray(meta["wavelengths"], float)
+        sens = np.asarray(meta["sensitivities"], float)
+        names = tuple(meta.get("sensor_names") or ()) or None
+        tile = np.asarray(meta["tile"], int)
+        for key, field in (("exposure_s", "exposure"), ("f_stop", "f_stop"), ("distance_m", "distance"),
+                           ("gain", "gain"), ("noise_sigma", "noise_sigma")):
+            if meta.get(key) is not None:
+                fields[field] = float(meta[key])
+        if meta.get("angular_resolution_px_per_deg"):
+            fields["angular_resolution"] = tuple(meta["angular_resolution_px_per_deg"])
+        bits = meta.get("bits") or bits
+    out = raw_from_array(data.astype(np.uint16) if bits and bits <= 16 else data, tile, sensitivities=sens,
+                         wavelengths=wls, sensor_names=names, bits=bits, **fields)
+    extra = dict(out.extra, black_level=float(black.max()), white_level=white, source=str(path))
+    return out.replace(extra=extra)
