@@ -1,8 +1,5 @@
 """DNG out, raws in: LibRaw (rawpy) is the independent client that must read camsim's DNG."""
 
-import subprocess
-import sys
-
 import colour
 import numpy as np
 import pytest
@@ -61,19 +58,23 @@ def test_colour_matrix_of_xyz_sensors_is_the_identity_up_to_scale():
     np.testing.assert_allclose(m / m[0, 0], np.eye(3), atol=1e-9)
 
 
-def test_black_level_round_trip_and_load_raw(tmp_path, dcs_raw):
-    pedestal = dcs_raw.replace(data=dcs_raw.data + 16.0, extra=dict(dcs_raw.extra, black_level=16.0))
-    path = cs.write_dng(pedestal, tmp_path / "black.dng")
+def test_black_level_round_trip_and_load_raw(tmp_path):
+    cam = cs.load_camera("kodak-dcs200-ir").replace(black_level=16.0, bits=10)
+    raw = cs.simulate(cs.load_scene("bfgb128"), cam, exposure=0.5, seed=1)
+    path = cs.write_dng(raw, tmp_path / "black.dng")
     with rawpy.imread(str(path)) as r:
-        assert list(r.black_level_per_channel) == [16, 16, 16, 16]
+        assert list(r.black_level_per_channel) == [16, 16, 16, 16] and r.white_level == 1023
+        assert r.raw_image_visible.min() >= 16
     back = cs.load_raw(path)
-    np.testing.assert_array_equal(back.data, dcs_raw.data)
-    np.testing.assert_array_equal(back.tile, dcs_raw.tile)
-    np.testing.assert_allclose(back.sensitivities, dcs_raw.sensitivities)
-    assert back.bits == 8 and back.mosaiced and back.gain == pytest.approx(dcs_raw.gain)
+    np.testing.assert_array_equal(back.data, raw.data)  # the pedestal stays in the data
+    assert back.black_level == 16.0
+    np.testing.assert_array_equal(back.tile, raw.tile)
+    np.testing.assert_allclose(back.sensitivities, raw.sensitivities)
+    assert back.bits == 10 and back.mosaiced and back.gain == pytest.approx(raw.gain)
+    np.testing.assert_allclose(cs.demosaic(back).data, cs.demosaic(raw).data)
     # and the real raw goes through the same processing
     rendered = cs.render(cs.demosaic(back), "simtoolbox-test")
-    assert rendered.data.shape == dcs_raw.data.shape + (3,)
+    assert rendered.data.shape == raw.data.shape + (3,)
 
 
 def test_load_raw_of_a_foreign_dng_has_no_sensitivities(tmp_path, dcs_raw):
@@ -106,15 +107,14 @@ def test_bad_raws_and_bad_dng_requests(tmp_path, dcs_raw):
     assert not (tmp_path / "x.dng").exists()
 
 
-def test_cli_simulate_writes_a_dng(tmp_path):
+def test_cli_simulate_writes_a_dng(tmp_path, capsys):
+    from camsim_core.cli import main
+
     out = tmp_path / "edge.dng"
-    r = subprocess.run([sys.executable, "-m", "camsim_core.cli", "simulate", "--scene", "bfgb128", "--camera",
-                        "kodak-dcs200-ir", "--auto-exposure", "--bits", "12", "--out", str(out)],
-                       capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
+    assert main(["simulate", "--scene", "bfgb128", "--camera", "kodak-dcs200-ir", "--auto-exposure", "--bits", "12",
+                 "--black-level", "64", "--out", str(out)]) == 0
     with rawpy.imread(str(out)) as raw:
-        assert raw.white_level == 4095
-    r = subprocess.run([sys.executable, "-m", "camsim_core.cli", "simulate", "--scene", "bfgb128", "--camera",
-                        "kodak-dcs200-ir", "--render", "baseline", "--out", str(tmp_path / "r.dng")],
-                       capture_output=True, text=True)
-    assert r.returncode == 2 and "DNG holds the raw mosaic" in r.stderr and not (tmp_path / "r.dng").exists()
+        assert raw.white_level == 4095 and list(raw.black_level_per_channel) == [64] * 4
+    assert main(["simulate", "--scene", "bfgb128", "--camera", "kodak-dcs200-ir", "--render", "baseline",
+                 "--out", str(tmp_path / "r.dng")]) == 2
+    assert "DNG holds the raw mosaic" in capsys.readouterr().err and not (tmp_path / "r.dng").exists()

@@ -6,8 +6,8 @@ raw converter needs (Adobe, *Digital Negative Specification* 1.4.0.0):
 * ``CFARepeatPatternDim`` / ``CFAPattern`` from the camera's mosaic tile,
   ``CFAPlaneColor`` R, G, B (sensors ranked by their mean wavelength,
   longest = red) and ``CFALayout`` 1 (rectangular);
-* ``BlackLevel`` (the image's ``black_level``, 0 for camsim's default
-  camera) and ``WhiteLevel`` 2^bits - 1;
+* ``BlackLevel`` (the image's ``black_level``: the camera's pedestal, which
+  the data hold) and ``WhiteLevel`` 2^bits - 1;
 * ``ColorMatrix1`` (XYZ -> camera) fitted by least squares from the camera's
   sensitivities over the 24 Macbeth reflectances under D65
   (``CalibrationIlluminant1`` = D65), normalized as the specification asks
@@ -110,10 +110,9 @@ def write_dng(image, path, *, model="camsim"):
     pattern = colours[np.asarray(image.tile)]
     matrix, neutral = color_matrix(image.sensitivities, image.wavelengths)
     white = 2**image.bits - 1
-    black = float(getattr(image, "black_level", 0) or image.extra.get("black_level", 0) or 0)
+    black = float(image.black_level)
     data = np.clip(np.round(np.asarray(image.data, float)), 0, white).astype(np.uint16)
     meta = image.metadata()
-    meta["black_level"] = black
     rows, cols = pattern.shape
     tags = [
         (33421, "H", 2, (rows, cols), True),  # CFARepeatPatternDim
@@ -166,8 +165,9 @@ def load_raw(path):
     """Read a DNG or camera raw file (any LibRaw reads, through rawpy) as a mosaiced camera image.
 
     The CFA pattern becomes the tile (R, G, B = sensors 0, 1, 2; LibRaw's
-    second green is green), the per-colour black level is subtracted and
-    ``bits`` follows the white level. A DNG written by camsim brings back
+    second green is green), the black level becomes the image's
+    ``black_level`` (the data keep the pedestal; demosaic and render
+    subtract it) and ``bits`` follows the white level. A DNG written by camsim brings back
     its sensitivities, exposure, f-stop, gain, distance and angular
     resolution from its metadata; another camera's raw has no sensitivities
     (demosaicing works, rendering needs them: see
@@ -199,10 +199,14 @@ def load_raw(path):
     letters = [desc[i] if i < len(desc) else "?" for i in range(4)]
     codes = sorted({_LETTERS.get(c, 7) for c in letters[: int(pattern.max()) + 1]})
     tile = np.vectorize(lambda i: codes.index(_LETTERS.get(letters[i], 7)))(pattern)
-    # per-pixel black from the per-colour-index levels, then subtract
-    black_map = black[np.tile(pattern, (mosaic.shape[0] // pattern.shape[0] + 1, mosaic.shape[1] // pattern.shape[1] + 1))
-                      [: mosaic.shape[0], : mosaic.shape[1]]]
-    data = np.clip(mosaic - black_map, 0.0, None)
+    # the pedestal stays in the data (processing subtracts it); per-colour levels that differ
+    # are evened out to the smallest, which the image then carries
+    used = black[np.unique(pattern)]
+    data = mosaic
+    if np.ptp(used) > 0:
+        reps = (mosaic.shape[0] // pattern.shape[0] + 1, mosaic.shape[1] // pattern.shape[1] + 1)
+        excess = (black - used.min())[np.tile(pattern, reps)[: mosaic.shape[0], : mosaic.shape[1]]]
+        data = np.clip(mosaic - excess, 0.0, None)
     bits = int(np.ceil(np.log2(white + 1))) if white > 0 else None
     meta = _camsim_metadata(path)
     fields = dict(name=path.stem)
@@ -221,6 +225,6 @@ def load_raw(path):
             fields["angular_resolution"] = tuple(meta["angular_resolution_px_per_deg"])
         bits = meta.get("bits") or bits
     out = raw_from_array(data.astype(np.uint16) if bits and bits <= 16 else data, tile, sensitivities=sens,
-                         wavelengths=wls, sensor_names=names, bits=bits, **fields)
-    extra = dict(out.extra, black_level=float(black.max()), white_level=white, source=str(path))
+                         wavelengths=wls, sensor_names=names, bits=bits, black_level=float(used.min()), **fields)
+    extra = dict(out.extra, white_level=white, source=str(path))
     return out.replace(extra=extra)
