@@ -5,7 +5,10 @@
 * :mod:`.viewing` - how the rendered image is viewed: S-CIELAB's samples per degree;
 * :mod:`.block` - registration and block-averaged Delta E*ab (Figure 1.13);
 * :mod:`.real` - the real versus simulated Kodak DCS-200 comparison;
-* :mod:`.sharpness` - ISO 12233 slanted-edge MTF, MTF50, MTF at Nyquist.
+* :mod:`.sharpness` - ISO 12233 slanted-edge MTF, MTF50, MTF at Nyquist;
+* :mod:`.snr` - SNR of uniform regions and against light level;
+* :mod:`.chart` - per-patch CIEDE2000 on the Macbeth chart;
+* :mod:`.similarity` - PSNR and SSIM (scikit-image).
 
 Public names: :func:`delta_e`, :func:`scielab`, :func:`block_compare`.
 """
@@ -24,6 +27,9 @@ from .s_cielab import (
 from .viewing import DEFAULT_VIEWING, ORIGINAL_EXAMPLE_VIEWING, Viewing, parse_viewing, viewing_samples_per_degree
 from .block import BlockComparison, Registration, block_average, block_compare, register
 from .real import RealComparison, compare_real
+from .chart import chart_delta_e, macbeth_delta_e, macbeth_patch_boxes, patch_map
+from .similarity import psnr, ssim
+from .snr import region_snr, snr, snr_db, snr_vs_light
 from .sharpness import NYQUIST, EdgeMTF, edge_angle, edge_mtf, luminance_weights, mtf50, mtf_at, slanted_edge_mtf
 
 __all__ = [
@@ -59,4 +65,14 @@ __all__ = [
     "luminance_weights",
     "EdgeMTF",
     "NYQUIST",
+    "region_snr",
+    "snr",
+    "snr_db",
+    "snr_vs_light",
+    "macbeth_delta_e",
+    "chart_delta_e",
+    "macbeth_patch_boxes",
+    "patch_map",
+    "psnr",
+    "ssim",
 ]

@@ -1,0 +1,122 @@
+"""Signal-to-noise ratio on uniform regions, per channel and for luminance, and its curve against light level.
+
+SNR = mean / standard deviation of a uniform region, in dB as 20 log10(SNR)
+(the ratio of amplitudes; ISO 15739 reports the same ratio). The pedestal
+(``black_level``) is subtracted first, as a raw converter does. A raw
+mosaic is measured per sensor class on that class's own samples, before any
+demosaicing mixes neighbours (which would lower the noise); luminance then
+needs a full-colour image.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ParameterError
+
+__all__ = ["snr", "snr_db", "region_snr", "snr_vs_light"]
+
+
+def snr(values):
+    """mean / standard deviation (ddof 1) of an array of samples; ``inf`` for a noiseless region."""
+    v = np.asarray(values, float).ravel()
+    if v.size < 2:
+        raise ParameterError("region", f"needs at least 2 samples, got {v.size}")
+    sd = v.std(ddof=1)
+    return float("inf") if sd == 0 else float(v.mean() / sd)
+
+
+def snr_db(values):
+    """:func:`snr` in decibels, 20 log10(mean / sd)."""
+    s = snr(values)
+    return float("inf") if np.isinf(s) else float(20.0 * np.log10(s)) if s > 0 else float("-inf")
+
+
+def _roi(shape, roi):
+    if roi is None:
+        return (slice(None), slice(None))
+    y0, y1, x0, x1 = (int(v) for v in roi)
+    if not (0 <= y0 < y1 <= shape[0] and 0 <= x0 < x1 <= shape[1]):
+        raise ParameterError("roi", f"(y0, y1, x0, x1) = {roi} must lie within the {shape[0]} x {shape[1]} image")
+    return (slice(y0, y1), slice(x0, x1))
+
+
+def region_snr(image, roi=None):
+    """SNR of a uniform region of a camera image (or an (H, W) / (H, W, K) array), per channel and luminance.
+
+    Parameters
+    ----------
+    image : CameraImage or array
+        A raw mosaic (measured per sensor class on its own samples), a
+        demosaiced or full-colour image, or an array.
+    roi : (y0, y1, x0, x1), optional
+        The uniform region, pixels; default the whole image.
+
+    Returns
+    -------
+    dict
+        Channel name -> ``{"mean", "sigma", "snr", "snr_db", "saturated"}``
+        (``saturated``: most of the region at the full scale, where the
+        clipped noise makes the SNR meaningless); ``"luminance"`` too for a
+        full-colour image of more than one channel.
+    """
+    from ..image import subtract_black_level
+    from .sharpness import luminance_weights
+
+    if hasattr(image, "black_level"):
+        image = subtract_black_level(image)
+    data = np.asarray(getattr(image, "data", image), float)
+    if data.ndim not in (2, 3):
+        raise ParameterError("image", f"expected (H, W) or (H, W, K) data, got shape {data.shape}")
+    sel = _roi(data.shape, roi)
+    names = tuple(getattr(image, "sensor_names", ()) or ())
+    planes = {}
+    if getattr(image, "mosaiced", False) and data.ndim == 2:
+        from ..simulation import tile_index_map
+
+        idx = tile_index_map(image.tile, data.shape)[sel]
+        region = data[sel]
+        for k in range(image.n_sensors or int(image.tile.max()) + 1):
+            planes[names[k] if k < len(names) else str(k)] = region[idx == k]
+    else:
+        d = data[..., None] if data.ndim == 2 else data
+        if len(names) != d.shape[2]:
+            names = tuple(str(i) for i in range(d.shape[2]))
+        region = d[sel]
+        for k, n in enumerate(names):
+            planes[n] = region[:, :, k]
+        if d.shape[2] > 1:
+            planes["luminance"] = region @ luminance_weights(image)
+    full = getattr(image, "full_scale", None)
+    out = {}
+    for n, v in planes.items():
+        v = np.asarray(v, float).ravel()
+        saturated = bool(full is not None and np.mean(v >= full) > 0.5)
+        out[n] = {"mean": float(v.mean()), "sigma": float(v.std(ddof=1)), "snr": snr(v), "snr_db": snr_db(v),
+                  "saturated": saturated}
+    return out
+
+
+def snr_vs_light(camera, luminances, *, size=64, illuminant="D65", seed=0, **simulate_kwargs):
+    """SNR (dB) of ``camera`` on a uniform field at each of ``luminances`` (cd/m^2).
+
+    The field fills the camera's view at its own sampling; returns
+    ``{"luminance": array, channel: array of dB, ...}`` (channels as
+    :func:`region_snr` reports them; NaN where the field saturates the channel).
+    """
+    from ..camera import load_camera
+    from ..scene.charts import uniform_scene
+    from ..simulation import simulate
+
+    cam = load_camera(camera)
+    lum = np.asarray(luminances, float).ravel()
+    if lum.size == 0 or np.any(~np.isfinite(lum)) or np.any(lum <= 0):
+        raise ParameterError("luminances", "must be positive numbers of cd/m^2")
+    cam = cam.replace(height=size, width=size, seed=seed)
+    out = {"luminance": lum}
+    for i, L in enumerate(lum):
+        scene = uniform_scene(size, luminance=float(L), illuminant=illuminant, angular_resolution=cam.angular_resolution)
+        res = region_snr(simulate(scene, cam, **simulate_kwargs))
+        for name, r in res.items():
+            out.setdefault(name, np.full(lum.size, np.nan))[i] = np.nan if r["saturated"] else r["snr_db"]
+    return out
