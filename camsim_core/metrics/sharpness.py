@@ -96,6 +96,12 @@ def _edge_line(a):
     """(p0, p1): edge at x = p0 + p1 y, from windowed centroids of each row's difference."""
     rows, cols = a.shape
     d = np.diff(a, axis=1)
+    k = max(2, cols // 8)
+    rise = np.median(a[:, -k:].mean(axis=1) - a[:, :k].mean(axis=1))
+    noise = 1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2)  # per-pixel sigma from the differences
+    if not rise > max(5 * noise, 1e-9 * np.abs(a).max()):
+        raise ParameterError("image", f"no edge found: the sides differ by {rise:.3g}, against noise of {noise:.3g}; "
+                             "expected one straight slanted edge between two flat regions")
     y = np.arange(rows)
     centre = np.full(rows, cols / 2)
     fit = None
