@@ -82,18 +82,42 @@ def region_snr(image, roi=None):
         d = data[..., None] if data.ndim == 2 else data
         if len(names) != d.shape[2]:
             names = tuple(str(i) for i in range(d.shape[2]))
-        region = d[sel]
-        for k, n in enumerate(names):
-            planes[n] = region[:, :, k]
-        if d.shape[2] > 1:
-            planes["luminance"] = region @ luminance_weights(image)
+        weights = luminance_weights(image) if d.shape[2] > 1 else None
+        return _colour_stats(d[sel], names, weights, getattr(image, "full_scale", None))
     full = getattr(image, "full_scale", None)
     out = {}
     for n, v in planes.items():
-        v = np.asarray(v, float).ravel()
-        saturated = bool(full is not None and np.mean(v >= full) > 0.5)
-        out[n] = {"mean": float(v.mean()), "sigma": float(v.std(ddof=1)), "snr": snr(v), "snr_db": snr_db(v),
-                  "saturated": saturated}
+        out[n] = _stats(np.asarray(v, float).ravel(), full)
+    return out
+
+
+def _entry(mean, sigma, saturated):
+    s = float("inf") if sigma == 0 else mean / sigma
+    db = float("inf") if np.isinf(s) else float(20.0 * np.log10(s)) if s > 0 else float("-inf")
+    return {"mean": float(mean), "sigma": float(sigma), "snr": float(s), "snr_db": db, "saturated": bool(saturated)}
+
+
+def _stats(v, full):
+    if v.size < 2:
+        raise ParameterError("region", f"needs at least 2 samples, got {v.size}")
+    return _entry(v.mean(), v.std(ddof=1), full is not None and np.mean(v >= full) > 0.5)
+
+
+def _colour_stats(region, names, weights, full):
+    """Per-channel and luminance statistics of (h, w, K) samples from one covariance product (no per-channel passes)."""
+    x = region.reshape(-1, region.shape[2])
+    n = x.shape[0]
+    if n < 2:
+        raise ParameterError("region", f"needs at least 2 samples, got {n}")
+    shift = x[0].copy()  # subtracting a sample keeps the one-pass variance well conditioned
+    xs = x - shift
+    s1 = xs.sum(axis=0)
+    cov = (xs.T @ xs - np.outer(s1, s1) / n) / (n - 1)
+    mean = s1 / n + shift
+    sat = (x >= full).mean(axis=0) > 0.5 if full is not None else np.zeros(x.shape[1], bool)
+    out = {name: _entry(mean[k], np.sqrt(max(cov[k, k], 0.0)), sat[k]) for k, name in enumerate(names)}
+    if weights is not None:
+        out["luminance"] = _entry(weights @ mean, np.sqrt(max(weights @ cov @ weights, 0.0)), bool(sat.any()))
     return out
 
 
