@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["quality_report", "MEASURES", "default_measures"]
+__all__ = ["quality_report", "measure_images", "MEASURES", "default_measures"]
 
 MEASURES = ("mtf", "snr", "color", "similarity")
 _BY_SCENE = {"slanted-edge": ("mtf",), "uniform": ("snr",), "macbeth": ("color",)}
@@ -38,16 +38,54 @@ def _central(shape, fraction=0.5):
     return (dy, h - dy, dx, w - dx)
 
 
-def quality_report(scene, camera, what=None, *, demosaic="bilinear", monitor="simtoolbox-test", **simulate_kwargs):
-    """Simulate ``camera`` on ``scene`` and measure ``what`` (names of :data:`MEASURES`; default by scene name)."""
-    from .. import demosaic as run_demosaic
-    from .. import ideal_image, load_camera, load_monitor, load_scene, render, simulate, to_xyz
-    from ..rendering import white_xyz
+def measure_images(what, *, raw, demosaiced=None, rendered=None, ideal=None, monitor="simtoolbox-test"):
+    """The measures ``what`` on images already simulated and processed (the explorer's pipeline result).
+
+    ``raw``: the camera image (SNR); ``demosaiced``: full sensor planes (MTF;
+    ``raw`` itself when not mosaiced); ``rendered`` and ``ideal``: rendered
+    monitor images (colour, similarity). Returns the JSON-ready dict of
+    :func:`quality_report` without the scene and camera names.
+    """
+    from ..monitor import load_monitor
+    from ..rendering import to_xyz, white_xyz
     from .chart import macbeth_delta_e
     from .cielab import delta_e
     from .sharpness import edge_mtf
     from .similarity import psnr, ssim
     from .snr import region_snr
+
+    unknown = sorted(set(what) - set(MEASURES))
+    if unknown:
+        raise ParameterError("what", f"unknown measure(s) {unknown}; valid: {', '.join(MEASURES)}")
+    full = demosaiced if demosaiced is not None else raw
+    if getattr(full, "mosaiced", False):
+        raise ParameterError("demosaiced", "the MTF needs a demosaiced image")
+    mon = load_monitor(monitor)
+    out = {"image_shape": list(raw.data.shape[:2])}
+    if ("color" in what or "similarity" in what) and (rendered is None or ideal is None):
+        raise ParameterError("rendered", "colour accuracy and similarity need the rendered and the ideal image")
+    if "mtf" in what:
+        res = edge_mtf(full)
+        out["mtf"] = {k: {"mtf50": v["mtf50"], "mtf_nyquist": v["mtf_nyquist"], "frequency": v["frequency"].tolist(),
+                          "mtf": v["mtf"].tolist()} for k, v in res.items()}
+    if "snr" in what:
+        roi = _central(raw.data.shape)
+        out["snr"] = {"roi": list(roi), "channels": region_snr(raw, roi)}
+    if "color" in what:
+        d = macbeth_delta_e(rendered, ideal, mon)
+        out["color"] = {"method": "CIE 2000", "per_patch": d["per_patch"].tolist(), "mean": d["mean"], "max": d["max"],
+                        "boxes": [list(b) for b in d["boxes"]]}
+    if "similarity" in what:
+        x1, x2 = to_xyz(rendered, mon), to_xyz(ideal, mon)
+        out["similarity"] = {"psnr_db": psnr(rendered, ideal), "ssim": ssim(rendered, ideal),
+                             "mean_delta_e_ab": float(np.mean(delta_e(x1, x2, white_xyz(mon))))}
+    return out
+
+
+def quality_report(scene, camera, what=None, *, demosaic="bilinear", monitor="simtoolbox-test", **simulate_kwargs):
+    """Simulate ``camera`` on ``scene`` and measure ``what`` (names of :data:`MEASURES`; default by scene name)."""
+    from .. import demosaic as run_demosaic
+    from .. import ideal_image, load_camera, load_monitor, load_scene, render, simulate
 
     scene = load_scene(scene)
     cam = load_camera(camera)
@@ -57,25 +95,11 @@ def quality_report(scene, camera, what=None, *, demosaic="bilinear", monitor="si
         raise ParameterError("what", f"unknown measure(s) {unknown}; valid: {', '.join(MEASURES)}")
     raw = simulate(scene, cam, **simulate_kwargs)
     full = run_demosaic(raw, demosaic) if raw.mosaiced else raw
-    out = {"scene": scene.name, "camera": cam.name, "image_shape": list(raw.data.shape[:2])}
     mon = load_monitor(monitor)
     rendered = ideal = None
     if "color" in names or "similarity" in names:
         rendered = render(full, mon)
         ideal = ideal_image(scene, cam, mon, **simulate_kwargs)
-    if "mtf" in names:
-        res = edge_mtf(full)
-        out["mtf"] = {k: {"mtf50": v["mtf50"], "mtf_nyquist": v["mtf_nyquist"], "frequency": v["frequency"].tolist(),
-                          "mtf": v["mtf"].tolist()} for k, v in res.items()}
-    if "snr" in names:
-        roi = _central(raw.data.shape)
-        out["snr"] = {"roi": list(roi), "channels": region_snr(raw, roi)}
-    if "color" in names:
-        d = macbeth_delta_e(rendered, ideal, mon)
-        out["color"] = {"method": "CIE 2000", "per_patch": d["per_patch"].tolist(), "mean": d["mean"], "max": d["max"],
-                        "boxes": [list(b) for b in d["boxes"]]}
-    if "similarity" in names:
-        x1, x2 = to_xyz(rendered, mon), to_xyz(ideal, mon)
-        out["similarity"] = {"psnr_db": psnr(rendered, ideal), "ssim": ssim(rendered, ideal),
-                             "mean_delta_e_ab": float(np.mean(delta_e(x1, x2, white_xyz(mon))))}
+    out = {"scene": scene.name, "camera": cam.name}
+    out.update(measure_images(names, raw=raw, demosaiced=full, rendered=rendered, ideal=ideal, monitor=mon))
     return out
