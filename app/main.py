@@ -14,6 +14,7 @@ import weakref
 import panel as pn
 
 from . import state as state_module
+from .quality import QualityView
 from .state import BITS_CHOICES, URL_PARAMETERS, ExplorerState
 from .upload import BoundedUpload
 from .views import CameraView, ResultsView, SceneView
@@ -218,7 +219,8 @@ def create_app(scene=None):
         name="Scene",
     )
     camera_tab = pn.Column(camera_view.info, pn.Row(camera_view.curves, camera_view.tile), name="Camera")
-    tabs = pn.Tabs(results_tab, scene_tab, camera_tab, ("Experiments", _experiments_tab()),
+    tabs = pn.Tabs(results_tab, scene_tab, camera_tab, ("Image quality", QualityView(state).panel()),
+                   ("Experiments", _experiments_tab()),
                    css_classes=["camsim-tabs"], dynamic=False)
     header = pn.pane.Markdown("## camsim explorer: a camera design on a hyperspectral scene", margin=(0, 10))
     page = pn.Column(

@@ -24,7 +24,7 @@ _SHIPPED = {
     "cacaphony290": ("Cacaphony290/Cacaphony290.Simg", "cacaphony"),
     "bfgb128": ("BFGB_128/BFGB_128.Simg", "bfgb"),
 }
-SCENE_NAMES = tuple(_SHIPPED) + ("macbeth", "stripes") + CHART_NAMES
+SCENE_NAMES = tuple(_SHIPPED) + ("macbeth", "stripes") + CHART_NAMES + tuple(f"photo-{p}" for p in SAMPLE_PHOTOS)
 _CACHE = {}
 
 
@@ -61,12 +61,12 @@ def load_scene(name_or_path, *, negative="error"):
         return macbeth_scene()
     if low == "stripes":
         return stripe_scene()
-    if low in CHART_NAMES:
-        return chart(low)
-    if low.startswith("photo-") and low[6:] in SAMPLE_PHOTOS:
-        from .photo import read_photo
+    if low in CHART_NAMES or (low.startswith("photo-") and low[6:] in SAMPLE_PHOTOS):
+        if low not in _CACHE:  # default charts and sample photos are made once and shared (read-only)
+            from .photo import read_photo
 
-        return read_photo(low)
+            _CACHE[low] = chart(low) if low in CHART_NAMES else read_photo(low)
+        return _CACHE[low]
     path = Path(key)
     if not os.path.lexists(path):
         raise FileFormatError(path, f"no such file, and not a shipped scene or chart name ({', '.join(SCENE_NAMES)})")

@@ -1,0 +1,105 @@
+"""The explorer's "Image quality" view: MTF curve with MTF50, SNR, Macbeth patch dE, PSNR / SSIM.
+
+Display only: every number comes from the engine's
+:func:`camsim_core.metrics.report.measure_images` on the session's pipeline
+result. What is measured follows the scene, as ``camsim measure`` does:
+the slanted-edge chart gives the MTF, the uniform field the SNR, the Macbeth
+chart the per-patch CIEDE2000; every scene gets PSNR and SSIM against the
+ideal image.
+"""
+
+from __future__ import annotations
+
+import holoviews as hv
+import numpy as np
+import panel as pn
+
+from camsim_core.errors import CamsimError
+from camsim_core.metrics.report import default_measures, measure_images
+
+__all__ = ["QualityView", "measures_for"]
+
+_HINT = "Pick the **slanted-edge** chart for the MTF, **uniform** for the SNR, **macbeth** for the patch dE."
+
+
+def measures_for(scene_name, result):
+    """The measures the scene and the pipeline result allow."""
+    names = [m for m in default_measures(scene_name) if m != "similarity"]
+    if result.rendered is not None and result.ideal is not None:
+        names.append("similarity")
+    elif "color" in names:
+        names.remove("color")
+    return tuple(names)
+
+
+def _mtf_plot(mtf):
+    curves = []
+    for name, v in mtf.items():
+        style = dict(line_width=3, color="black") if name == "luminance" else dict(line_width=1.5)
+        curves.append(hv.Curve((v["frequency"], v["mtf"]), "Frequency (cycles/pixel)", "MTF", label=name).opts(**style))
+    lum = mtf.get("luminance") or next(iter(mtf.values()))
+    marks = [hv.VLine(0.5).opts(color="gray", line_dash="dotted")]
+    if np.isfinite(lum["mtf50"]):
+        marks.append(hv.VLine(lum["mtf50"]).opts(color="red", line_dash="dashed"))
+    return hv.Overlay(curves + marks).opts(
+        frame_width=420, frame_height=240, xlim=(0, 1), ylim=(0, 1.1), legend_position="top_right",
+        title=f"Slanted-edge MTF: MTF50 {lum['mtf50']:.3f} cycles/px (red), Nyquist dotted")
+
+
+def _snr_table(snr):
+    rows = [f"| {k} | {v['mean']:.2f} | {v['sigma']:.3f} | {v['snr_db']:.2f}{' (saturated)' if v['saturated'] else ''} |"
+            for k, v in snr["channels"].items()]
+    y0, y1, x0, x1 = snr["roi"]
+    return (f"**SNR** of the raw on the central region (rows {y0}-{y1}, columns {x0}-{x1})\n\n"
+            "| channel | mean (DU) | sigma (DU) | SNR (dB) |\n|---|---|---|---|\n" + "\n".join(rows))
+
+
+def _color_table(color):
+    de = np.asarray(color["per_patch"])
+    rows = ["| " + " | ".join(f"{v:.2f}" for v in de[6 * r : 6 * r + 6]) + " |" for r in range(4)]
+    return (f"**Macbeth chart, CIEDE2000 per patch against the ideal image**: mean {color['mean']:.2f}, "
+            f"max {color['max']:.2f}\n\n| | | | | | |\n|---|---|---|---|---|---|\n" + "\n".join(rows))
+
+
+class QualityView:
+    """MTF curve, SNR table, patch dE table and similarity line, following the state's result."""
+
+    def __init__(self, state):
+        self.state = state
+        self.report = {}
+        self.mtf = pn.pane.HoloViews(hv.Curve([]), css_classes=["camsim-mtf"], linked_axes=False, visible=False)
+        self.text = pn.pane.Markdown("", css_classes=["camsim-quality"], sizing_mode="stretch_width")
+        state.param.watch(lambda e: self.update(), ["result"])
+        self.update()
+
+    def update(self):
+        res = self.state.result
+        if res is None or res.raw is None:
+            return
+        what = measures_for(self.state.scene, res)
+        try:
+            self.report = measure_images(what, raw=res.raw, demosaiced=res.demosaiced, rendered=res.rendered,
+                                         ideal=res.ideal, monitor=self.state.monitor)
+            problem = ""
+        except CamsimError as exc:
+            self.report, problem = {}, f"**Not measured**: {exc}"
+        parts = [problem] if problem else []
+        if "mtf" in self.report:
+            self.mtf.object = _mtf_plot(self.report["mtf"])
+            lines = [f"| {k} | {v['mtf50']:.3f} | {v['mtf_nyquist']:.3f} |" for k, v in self.report["mtf"].items()]
+            parts.append("| channel | MTF50 (cycles/px) | MTF at Nyquist |\n|---|---|---|\n" + "\n".join(lines))
+        self.mtf.visible = "mtf" in self.report
+        if "snr" in self.report:
+            parts.append(_snr_table(self.report["snr"]))
+        if "color" in self.report:
+            parts.append(_color_table(self.report["color"]))
+        if "similarity" in self.report:
+            s = self.report["similarity"]
+            parts.append(f"**Against the ideal image**: PSNR {s['psnr_db']:.2f} dB · SSIM {s['ssim']:.4f} · "
+                         f"mean dE\\*ab {s['mean_delta_e_ab']:.2f}")
+        if not any(k in self.report for k in ("mtf", "snr", "color")):
+            parts.append(_HINT)
+        self.text.object = "\n\n".join(parts)
+
+    def panel(self):
+        return pn.Column(self.mtf, self.text, name="Image quality", sizing_mode="stretch_width")
