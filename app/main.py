@@ -72,7 +72,7 @@ def _controls(state, results):
     w = pn.widgets
     scene = _widget(w.Select, state, "scene", "w-scene", name="Scene")
     limits = state_module.LIMITS
-    upload = BoundedUpload(accept=".npz,.zip", max_bytes=limits.upload.max_upload_bytes, css_classes=["w-upload"],
+    upload = BoundedUpload(accept=".npz,.zip,.mat,.png,.jpg,.jpeg", max_bytes=limits.upload.max_upload_bytes, css_classes=["w-upload"],
                            sizing_mode="stretch_width", visible=_options["upload"])
 
     def on_upload(event):
@@ -145,7 +145,7 @@ def _controls(state, results):
     ]
     card = dict(sizing_mode="stretch_width", margin=(4, 0))
     return pn.Column(
-        pn.Card(scene, pn.pane.Markdown("Upload a scene (.npz, or .zip of a .Simg with its planes):",
+        pn.Card(scene, pn.pane.Markdown("Upload a scene (.npz, .mat, a photo, or a .zip of a .Simg, an ENVI .hdr or band PNGs):",
                                         visible=_options["upload"]), upload, title="Scene", **card),
         pn.Card(camera, alpha, centers, widths, mosaic, tile, title="Camera", **card),
         pn.Card(distance, pn.Row(exposure, auto), f_stop, noise, bits, seed, title="Exposure and noise", **card),

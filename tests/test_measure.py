@@ -56,6 +56,6 @@ def test_cli_measure_bad_input(tmp_path, capsys):
     assert main(["measure", "--what", "sharpness"]) == 2
     assert "unknown measure" in capsys.readouterr().err
     assert main(["measure", "--image", str(tmp_path / "none.dng")]) == 2
-    assert "no such file" in capsys.readouterr().err
+    assert "no such file" in capsys.readouterr().err.lower()
     assert main(["measure", "--scene", "uniform", "--what", "mtf"]) == 2
     assert "no edge" in capsys.readouterr().err

@@ -241,3 +241,25 @@ def test_band_folder_bad_files(tmp_path, rng):
     empty.mkdir()
     with pytest.raises(FileFormatError, match="no band PNGs"):
         cs.load_scene(empty)
+
+
+def test_readers_refuse_special_files(tmp_path):
+    import os
+
+    for name in ("pipe.hdr", "pipe.mat", "pipe.png"):
+        fifo = tmp_path / name
+        os.mkfifo(fifo)
+        with pytest.raises(FileFormatError, match="not a regular file"):
+            cs.load_scene(fifo)  # never hangs on a FIFO
+
+
+def test_readers_honour_a_tighter_size_limit(tmp_path, cube):
+    from camsim_core.scene.envi import read_envi
+    from camsim_core.scene.matlab import read_mat
+
+    envi.save_image(str(tmp_path / "c.hdr"), cube, ext=".img", metadata={"wavelength": list(WLS)})
+    savemat(tmp_path / "c.mat", {"cube": cube, "bands": WLS})
+    with pytest.raises(FileFormatError, match="more than the 100 allowed"):
+        read_envi(tmp_path / "c.hdr", max_values=100)
+    with pytest.raises(FileFormatError, match="more than the 100 allowed"):
+        read_mat(tmp_path / "c.mat", max_values=100)

@@ -177,10 +177,10 @@ def load_raw(path):
 
     from .raw import raw_from_array
 
+    from .files import check_regular
+
     path = Path(path)
-    if not path.is_file():
-        raise FileFormatError(path, "no such file")
-    size = path.stat().st_size
+    size = check_regular(path).st_size
     if size > MAX_RAW_BYTES:
         raise FileFormatError(path, f"{size} bytes is more than the {MAX_RAW_BYTES} a raw file may have")
     try:

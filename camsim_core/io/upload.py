@@ -1,8 +1,10 @@
 """Scenes uploaded as bytes (the explorer's upload): bounded, and confined to their own folder.
 
-An upload is an ``.npz`` scene, or a ``.zip`` holding a ``.Simg`` header
-with its plane files (and, optionally, its hyperspectral camera's
-``.Scam``). It is unpacked into a fresh temporary folder and read from
+An upload is an ``.npz`` scene, a MATLAB ``.mat`` or a photo (read by
+:mod:`camsim_core.scene.matlab` / :mod:`~camsim_core.scene.photo`), or a
+``.zip`` holding a ``.Simg`` header with its plane files (and, optionally,
+its hyperspectral camera's ``.Scam``), an ENVI ``.hdr`` with its data file,
+or a folder of band PNGs. It is unpacked into a fresh temporary folder and read from
 there only:
 
 * its size is checked first (:attr:`UploadLimits.max_upload_bytes`);
@@ -30,7 +32,7 @@ from pathlib import Path, PurePosixPath
 
 from ..errors import CamsimError, FileFormatError
 
-__all__ = ["UploadLimits", "load_upload", "DEFAULT_LIMITS"]
+__all__ = ["UploadLimits", "load_upload", "DEFAULT_LIMITS", "UPLOAD_KINDS"]
 
 
 @dataclass(frozen=True)
@@ -72,7 +74,10 @@ class UploadLimits:
 
 DEFAULT_LIMITS = UploadLimits()
 
-_SUFFIXES = (".npz", ".zip")
+_SUFFIXES = (".npz", ".zip", ".mat", ".png", ".jpg", ".jpeg")
+#: What an upload may be, for messages and the explorer's file picker.
+UPLOAD_KINDS = (".npz, a MATLAB .mat (ICVL, ARAD, Harvard, ISETCam), a photo (.png, .jpg), or a .zip of a .Simg "
+                "with its planes, of an ENVI .hdr with its data file, or of a folder of band PNGs")
 
 
 def _mb(n):
@@ -90,7 +95,7 @@ def load_upload(filename, content, limits=DEFAULT_LIMITS):
     name = PurePosixPath(str(filename or "upload").replace("\\", "/")).name or "upload"
     suffix = PurePosixPath(name).suffix.lower()
     if suffix not in _SUFFIXES:
-        raise FileFormatError(name, "upload a scene as .npz, or a .zip of a .Simg header with its planes")
+        raise FileFormatError(name, f"upload a scene as {UPLOAD_KINDS}")
     size = len(content)
     if size > limits.max_upload_bytes:
         raise FileFormatError(name, f"is {_mb(size)}, more than the {_mb(limits.max_upload_bytes)} an upload may be")
@@ -98,6 +103,8 @@ def load_upload(filename, content, limits=DEFAULT_LIMITS):
     try:
         if suffix == ".npz":
             return _load_npz(tmp, name, content, limits)
+        if suffix != ".zip":
+            return _load_single(tmp, name, suffix, content, limits)
         return _load_zip(tmp, name, content, limits)
     except CamsimError as exc:
         raise _scrubbed(exc, tmp, name) from None
@@ -125,6 +132,19 @@ def _load_npz(tmp, name, content, limits):
     path.write_bytes(content)
     _check_directory(path, name, limits)
     return read_npz_scene(path, name=PurePosixPath(name).stem, shown=name, max_values=limits.max_scene_values)
+
+
+def _load_single(tmp, name, suffix, content, limits):
+    """A ``.mat`` or a photo: written under the user's file name, read with the scene-size limit."""
+    path = tmp / name
+    path.write_bytes(content)
+    if suffix == ".mat":
+        from ..scene.matlab import read_mat
+
+        return read_mat(path, max_values=limits.max_scene_values)
+    from ..scene.photo import read_photo
+
+    return read_photo(path, max_values=limits.max_scene_values)
 
 
 def _check_directory(path_or_file, name, limits):
@@ -184,7 +204,7 @@ def _load_zip(tmp, name, content, limits):
     members = [(info, _safe_member_name(name, info.filename)) for info in infos]
     headers = sorted(p for info, p in members if not info.is_dir() and p.suffix.lower() == ".simg")
     if not headers:
-        raise FileFormatError(name, "the zip holds no .Simg header")
+        return _load_other_zip(tmp, name, buf, members, limits)
     root = tmp / "upload"
     root.mkdir()
     budget = limits.max_total_bytes
@@ -210,3 +230,37 @@ def _load_zip(tmp, name, content, limits):
         raise FileFormatError(name, f"not a readable zip file ({exc})") from None
     scene = read_simg(header, shown=shown, max_values=limits.max_scene_values)
     return scene
+
+
+def _load_other_zip(tmp, name, buf, members, limits):
+    """A zip of an ENVI ``.hdr`` with its data file, or of a folder of band PNGs (CAVE's layout).
+
+    Extracted with the same bounds as a ``.Simg`` upload; the reader checks
+    the scene's size from the header (ENVI) or the PNG headers before
+    allocating.
+    """
+    files = [p for info, p in members if not info.is_dir()]
+    hdrs = sorted(p for p in files if p.suffix.lower() == ".hdr")
+    pngs = sorted(p for p in files if p.suffix.lower() == ".png")
+    if not hdrs and not pngs:
+        raise FileFormatError(name, "the zip holds no .Simg header, no ENVI .hdr and no band PNGs")
+    root = tmp / "upload"
+    root.mkdir()
+    budget = limits.max_total_bytes
+    try:
+        with zipfile.ZipFile(buf) as z:
+            for info, p in members:
+                if info.is_dir():
+                    continue
+                target = root / p
+                target.parent.mkdir(parents=True, exist_ok=True)
+                budget -= _extract(z, info, target, name, limits, budget)
+    except (zipfile.BadZipFile, EOFError, NotImplementedError, RuntimeError) as exc:
+        raise FileFormatError(name, f"not a readable zip file ({exc})") from None
+    if hdrs:
+        from ..scene.envi import read_envi
+
+        return read_envi(root / hdrs[0], max_values=limits.max_scene_values)
+    from ..scene.cave import read_band_folder
+
+    return read_band_folder(root / pngs[0].parent, max_values=limits.max_scene_values)

@@ -47,17 +47,22 @@ class SceneNotice(UserWarning):
     """A reader had to assume something about a scene (geometry, units); also kept in ``Scene.notices``."""
 
 
-def check_scene_size(path, shape, what="the radiance cube"):
-    """Refuse a cube whose header promises more than :data:`MAX_SCENE_VALUES` values, or an empty one."""
+def check_scene_size(path, shape, what="the radiance cube", max_values=None):
+    """Refuse a cube whose header promises more than ``max_values`` values (at most :data:`MAX_SCENE_VALUES`), or an empty one.
+
+    ``max_values`` is the caller's tighter bound (an upload's
+    :attr:`~camsim_core.io.upload.UploadLimits.max_scene_values`).
+    """
     dims = [int(d) for d in shape]
     if not dims or any(d <= 0 for d in dims):
         raise FileFormatError(path, f"{what} has shape {tuple(dims)}; expected positive sizes")
     total = int(np.prod(np.asarray(dims, dtype=object)))
-    if total > MAX_SCENE_VALUES:
+    limit = MAX_SCENE_VALUES if max_values is None else min(int(max_values), MAX_SCENE_VALUES)
+    if total > limit:
         raise FileFormatError(
             path,
-            f"{what} has shape {tuple(dims)} = {total} values, more than the {MAX_SCENE_VALUES} "
-            "a scene may hold (2 GiB as float64); crop or bin it first",
+            f"{what} has shape {tuple(dims)} = {total} values, more than the {limit} allowed"
+            + (" (2 GiB as float64); crop or bin it first" if limit == MAX_SCENE_VALUES else ""),
         )
     return total
 

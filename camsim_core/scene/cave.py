@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FileFormatError
+from ..io.files import check_regular, read_regular
 from ._intake import check_scene_size, finish_scene
 
 __all__ = ["read_band_folder", "write_band_folder", "CAVE_WAVELENGTHS"]
@@ -55,10 +56,8 @@ def _layout(folder, pngs):
     for name in _JSON_NAMES:
         jp = folder / name
         if jp.is_file():
-            if jp.stat().st_size > 1 << 20:
-                raise FileFormatError(jp, "larger than 1 MiB; expected a small JSON with 'wavelengths'")
             try:
-                meta = json.loads(jp.read_text())
+                meta = json.loads(read_regular(jp, max_bytes=1 << 20))
             except (ValueError, UnicodeDecodeError) as exc:
                 raise FileFormatError(jp, f"not valid JSON ({exc})") from None
             if isinstance(meta, list):
@@ -92,6 +91,7 @@ def _layout(folder, pngs):
 def _band(path, size):
     from PIL import Image, UnidentifiedImageError
 
+    check_regular(path)
     try:
         with Image.open(path) as im:
             if im.size != size:
@@ -106,11 +106,12 @@ def _band(path, size):
     return a.astype(float) / full
 
 
-def read_band_folder(path, *, illuminant=None, luminance=100.0, negative="error"):
+def read_band_folder(path, *, illuminant=None, luminance=100.0, negative="error", max_values=None):
     """Read a folder of band PNGs as a :class:`~camsim_core.scene.Scene` (see the module docstring).
 
     ``illuminant`` (a name or Spectrum): treat the bands as reflectance and
     light them with it, scaled so that a white reflector has ``luminance`` cd/m^2.
+    ``max_values`` tightens the size bound (pixels x bands).
     """
     from PIL import Image, UnidentifiedImageError
 
@@ -119,12 +120,13 @@ def read_band_folder(path, *, illuminant=None, luminance=100.0, negative="error"
         raise FileFormatError(path, "not a folder (a band-PNG scene is a folder of one PNG per band)")
     folder, pngs = _folder(path)
     files, wls, meta = _layout(folder, pngs)
+    check_regular(files[0])
     try:
         with Image.open(files[0]) as im:
             size = im.size
     except (UnidentifiedImageError, OSError) as exc:
         raise FileFormatError(files[0], f"not a readable PNG ({exc})") from None
-    check_scene_size(folder, (size[1], size[0], len(files)))
+    check_scene_size(folder, (size[1], size[0], len(files)), max_values=max_values)
     cube = np.empty((size[1], size[0], len(files)))
     for k, f in enumerate(files):
         cube[:, :, k] = _band(f, size)

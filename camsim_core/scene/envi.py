@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FileFormatError
+from ..io.files import MAX_TEXT_BYTES, check_regular
 from ._intake import check_scene_size, finish_scene, per_nm_to_per_band, photons_to_radiance
 
 __all__ = ["read_envi", "write_envi"]
@@ -86,16 +87,20 @@ def _geometry(path, h):
     return distance, ar
 
 
-def read_envi(path, *, negative="error"):
-    """Read an ENVI image as a :class:`~camsim_core.scene.Scene` (see the module docstring)."""
+def read_envi(path, *, negative="error", max_values=None):
+    """Read an ENVI image as a :class:`~camsim_core.scene.Scene` (see the module docstring).
+
+    ``max_values`` tightens the size bound (lines x samples x bands).
+    """
     from spectral.io import envi
 
     path = Path(path)
-    if not path.is_file():
-        raise FileFormatError(path, "no such file")
+    st = check_regular(path)
+    if st.st_size > MAX_TEXT_BYTES:
+        raise FileFormatError(path, f"is {st.st_size} bytes: too large for an ENVI header")
     h = _header(path)
     lines, samples, bands = (_int_field(path, h, k) for k in ("lines", "samples", "bands"))
-    check_scene_size(path, (lines, samples, bands))
+    check_scene_size(path, (lines, samples, bands), max_values=max_values)
     code = _int_field(path, h, "data type")
     if code not in _DTYPES:
         raise FileFormatError(path, f"ENVI data type {code} is not supported (expected one of {sorted(_DTYPES)})")
@@ -114,6 +119,7 @@ def read_envi(path, *, negative="error"):
     except Exception as exc:  # missing data file, unknown interleave, ...
         raise FileFormatError(path, f"cannot open the ENVI data file: {exc}") from None
     data_path = Path(img.filename)
+    check_regular(data_path)
     need = int(h.get("header offset", 0) or 0) + lines * samples * bands * np.dtype(_DTYPES[code]).itemsize
     have = data_path.stat().st_size
     if have < need:

@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FileFormatError
+from ..io.files import check_regular
 from ..spectra import Spectrum, sampling_wavelengths
 from ._intake import MAX_SCENE_VALUES, check_scene_size, finish_scene, photons_to_radiance
 
@@ -102,6 +103,7 @@ class _V5:
     """Variables of a v5 file, read on demand with scipy.io.loadmat (structs as attribute objects)."""
 
     transposed = False
+    max_values = None
 
     def __init__(self, path):
         from scipy.io import whosmat
@@ -139,6 +141,7 @@ class _H5:
     """Variables of a v7.3 (HDF5) file through h5py; shapes checked before any dataset is read."""
 
     transposed = True
+    max_values = None
 
     def __init__(self, path):
         import h5py
@@ -171,7 +174,7 @@ class _H5:
             raise FileFormatError(self.path, f"{obj.name} is a group, expected an array")
         if obj.dtype.kind not in "biuf":
             raise FileFormatError(self.path, f"{obj.name} holds {obj.dtype}, expected numbers")
-        check_scene_size(self.path, obj.shape or (1,), obj.name)
+        check_scene_size(self.path, obj.shape or (1,), obj.name, self.max_values)
         return obj[()]
 
     def close(self):
@@ -194,7 +197,7 @@ def _cube(src, obj, n_bands, what):
         raise FileFormatError(src.path, f"{what} is missing")
     if src.transposed:
         shape = tuple(obj.shape) if hasattr(obj, "shape") else ()
-        check_scene_size(src.path, shape or (0,), what)
+        check_scene_size(src.path, shape or (0,), what, src.max_values)
         a = src.array(obj)
         if a.ndim == 3 and not (n_bands and a.shape[2] == n_bands and a.shape[0] != n_bands):
             a = a.T  # MATLAB's (H, W, N) is stored (N, W, H)
@@ -202,7 +205,7 @@ def _cube(src, obj, n_bands, what):
             a = a.T
     else:
         a = src.array(obj)
-        check_scene_size(src.path, a.shape or (0,), what)
+        check_scene_size(src.path, a.shape or (0,), what, src.max_values)
     if a.ndim == 2:
         a = a[:, :, None]
     if a.ndim != 3 or not np.issubdtype(a.dtype, np.number):
@@ -267,7 +270,7 @@ def _isetcam_multispectral(src, label):
     if coef.shape[2] != b.shape[1]:
         raise FileFormatError(src.path, f"mcCOEF has {coef.shape[2]} coefficients per pixel, basis has {b.shape[1]} functions")
     h, w, _ = coef.shape
-    check_scene_size(src.path, (h, w, wave.size))
+    check_scene_size(src.path, (h, w, wave.size), max_values=src.max_values)
     photons = (coef.reshape(-1, coef.shape[2]).astype(float) @ b.T).reshape(h, w, wave.size)
     if "imgMean" in src.names():
         mean = _vector(src, src.get("imgMean"))
@@ -302,12 +305,15 @@ def _dataset_cube(src, var, dataset, label):
                 name=label, comments=f"{dataset} hyperspectral cube", notices=notices)
 
 
-def read_mat(path, *, negative="error"):
-    """Read a MATLAB ``.mat`` hyperspectral scene (see the module docstring for the variables)."""
+def read_mat(path, *, negative="error", max_values=None):
+    """Read a MATLAB ``.mat`` hyperspectral scene (see the module docstring for the variables).
+
+    ``max_values`` tightens the bound on every array's size.
+    """
     path = Path(path)
-    if not path.is_file():
-        raise FileFormatError(path, "no such file")
+    check_regular(path)
     src = _H5(path) if _is_hdf5(path) else _V5(path)
+    src.max_values = max_values
     try:
         names = src.names()
         label = path.stem

@@ -96,10 +96,11 @@ def _sample_photo(name):
     return getattr(data, name)()
 
 
-def read_photo(path, **options):
+def read_photo(path, *, max_values=None, **options):
     """A photo file (PNG, JPEG, TIFF, BMP; 8 or 16 bits) or ``photo-NAME`` of :data:`SAMPLE_PHOTOS` as a scene.
 
-    The pixel count is read from the header and checked before decoding;
+    The pixel count is read from the header and checked before decoding
+    (pixels x bands at most ``max_values``, and :data:`MAX_SCENE_VALUES`);
     ``options`` go to :func:`scene_from_rgb`.
     """
     key = str(path)
@@ -108,13 +109,18 @@ def read_photo(path, **options):
         return scene_from_rgb(rgb, name=key.lower(), **options)
     from PIL import Image, UnidentifiedImageError
 
+    from ..io.files import check_regular
+
     path = Path(path)
     n = len(np.atleast_1d(options.get("wavelengths", DEFAULT_WAVELENGTHS)))
+    limit = MAX_SCENE_VALUES if max_values is None else min(int(max_values), MAX_SCENE_VALUES)
+    check_regular(path)
     try:
         with Image.open(path) as im:
             w, h = im.size
-            if w * h * n > MAX_SCENE_VALUES:
-                raise FileFormatError(path, f"{w} x {h} pixels x {n} bands is more than {MAX_SCENE_VALUES} values; downsize the photo")
+            if w * h * n > limit:
+                raise FileFormatError(path, f"{w} x {h} pixels x {n} bands is more than the {limit} values allowed; "
+                                            "downsize the photo")
             sixteen = im.mode.startswith("I")
             a = np.asarray(im if sixteen else im.convert("RGB"))
     except (UnidentifiedImageError, OSError) as exc:
