@@ -59,3 +59,14 @@ def test_cli_measure_bad_input(tmp_path, capsys):
     assert "no such file" in capsys.readouterr().err.lower()
     assert main(["measure", "--scene", "uniform", "--what", "mtf"]) == 2
     assert "no edge" in capsys.readouterr().err
+
+
+def test_cli_snr_vs_light(tmp_path, capsys):
+    out = tmp_path / "curve.json"
+    assert main(["measure", "--snr-vs-light", "5,20", "--noise-sigma", "2", "--exposure", "0.5", "--bits", "12",
+                 "--json", str(out)]) == 0
+    curve = json.loads(out.read_text())["snr_vs_light"]
+    assert curve["luminance"] == [5.0, 20.0]
+    # additive noise: 4 x the light is 4 x the SNR, +12.04 dB
+    assert curve["G"][1] - curve["G"][0] == pytest.approx(20 * np.log10(4), abs=0.6)
+    assert "cd/m^2" in capsys.readouterr().out

@@ -25,6 +25,8 @@ def register(subparsers):
     p.add_argument("--image", help="measure this file instead of simulating (DNG/raw, PNG, TIFF)")
     p.add_argument("--what", help="comma-separated: mtf, snr, color, similarity (default: by scene)")
     p.add_argument("--roi", help="y0,y1,x0,x1 region of an --image to measure")
+    p.add_argument("--snr-vs-light", dest="snr_vs_light", metavar="L1,L2,...",
+                   help="SNR (dB) of the camera on uniform fields of these luminances, cd/m^2 (at the given exposure)")
     p.add_argument("--distance", type=float)
     p.add_argument("--exposure", type=float, help="s (default: auto exposure)")
     p.add_argument("--f-stop", type=float, dest="f_stop")
@@ -82,7 +84,28 @@ def _image_report(args, what):
     return out
 
 
+def _snr_curve(args):
+    from .. import load_camera
+    from ..metrics import snr_vs_light
+
+    try:
+        levels = [float(v) for v in args.snr_vs_light.split(",") if v.strip()]
+    except ValueError:
+        raise ParameterError("--snr-vs-light", f"expected luminances like 10,30,100, got {args.snr_vs_light!r}") from None
+    cam = load_camera(args.camera)
+    changes = {k: getattr(args, k) for k in ("noise_sigma", "bits", "black_level", "seed", "f_stop", "exposure")
+               if getattr(args, k) is not None}
+    curve = snr_vs_light(cam.replace(**changes), levels)
+    return {"camera": cam.name, "snr_vs_light": {k: [float(x) for x in v] for k, v in curve.items()}}
+
+
 def _print(report):
+    if "snr_vs_light" in report:
+        c = report["snr_vs_light"]
+        names = [k for k in c if k != "luminance"]
+        print("SNR (dB) vs light   " + "".join(f"{n:>10}" for n in names) + "   (nan: saturated)")
+        for i, lum in enumerate(c["luminance"]):
+            print(f"  {lum:10.3g} cd/m^2 " + "".join(f"{c[n][i]:10.2f}" for n in names))
     if "mtf" in report:
         print("MTF (slanted edge)     MTF50 cy/px   MTF at Nyquist")
         for k, v in report["mtf"].items():
@@ -111,7 +134,9 @@ def run(args):
         unknown = sorted(set(what) - set(MEASURES))
         if unknown:
             raise ParameterError("--what", f"unknown measure(s) {unknown}; valid: {', '.join(MEASURES)}")
-    if args.image:
+    if args.snr_vs_light:
+        report = _snr_curve(args)
+    elif args.image:
         report = _image_report(args, what or ("mtf",))
     else:
         from .. import auto_exposure, load_camera, load_scene
