@@ -343,7 +343,10 @@ def evaluate_design(params, name="design", *, scene=None, pipeline=None, metrics
         p = check_params({k: v for k, v in params.items() if k != "scene"}, name)
         p["scene"] = params.get("scene", getattr(scene, "name", ""))
         scene_obj = scene
-    camera = camera_from_params(p)
+    try:
+        camera = camera_from_params(p)
+    except CamsimError as exc:
+        raise CamsimError(f"{name}: {exc}") from None
     proc = processing_from_params(p, metrics=metrics)
     res = (pipeline or Pipeline()).run(scene_obj, camera, proc)
     return result_from_pipeline(res, p, name, proc)
