@@ -33,7 +33,7 @@ __all__ = [
     "DESIGN_DEFAULTS", "DESIGN_PARAMETERS", "CAMERA_CHOICES", "MOSAIC_CHOICES", "RENDER_CHOICES",
     "ILLUMINANT_CHOICES", "METRIC_CHOICES", "GAUSSIAN_DEFAULTS", "DesignResult",
     "check_params", "camera_from_params", "processing_from_params", "scene_from_params",
-    "evaluate_design", "measures", "parse_numbers", "parse_tile", "differing_parameters",
+    "evaluate_design", "measures", "check_pinned", "MAX_PINNED", "read_design_file", "result_from_pipeline", "parse_numbers", "parse_tile", "differing_parameters",
 ]
 
 
@@ -98,35 +98,63 @@ DESIGN_PARAMETERS = {
     "illuminant": ("known", "choice", ILLUMINANT_CHOICES),
     "monitor": ("simtoolbox-test", "choice", _monitor_names()),
     "metric": ("CIELAB", "choice", METRIC_CHOICES),
+    "viewing": ("camera", "text", None),
     "wavelength": (550.0, "number", (0.0, 10000.0)),
 }
 DESIGN_DEFAULTS = {k: v[0] for k, v in DESIGN_PARAMETERS.items()}
+#: Parameters a comparison shares between its designs (not stored with a pinned design).
+_SHARED = ("scene", "wavelength", "metric", "viewing")
+#: Pinned designs in one comparison.
+MAX_PINNED = 4
 
 
-def parse_numbers(text, name):
-    """Comma- or space-separated numbers from a text field (a ParameterError naming ``name`` otherwise)."""
+#: Default bounds on text-described parameters (the explorer's server may set its own).
+MAX_SENSORS, MAX_TILE, MAX_TEXT = 16, 8, 256
+
+
+def _check_text(text, name, max_text):
+    text = str(text)
+    if len(text) > max_text:
+        raise ParameterError(name, f"is {len(text)} characters long; at most {max_text} are accepted")
+    return text
+
+
+def parse_numbers(text, name, *, max_count=MAX_SENSORS, max_text=MAX_TEXT):
+    """Comma- or space-separated finite numbers from a text field (a ParameterError naming ``name`` otherwise).
+
+    At most ``max_count`` numbers in at most ``max_text`` characters.
+    """
+    text = _check_text(text, name, max_text)
     try:
-        values = [float(v) for v in str(text).replace(",", " ").split()]
+        values = [float(v) for v in text.replace(",", " ").split()]
     except ValueError:
         raise ParameterError(name, f"expected numbers separated by commas, got {text!r}") from None
     if not values:
         raise ParameterError(name, "expected at least one number")
+    if len(values) > max_count:
+        raise ParameterError(name, f"{len(values)} numbers given; at most {max_count} sensors are allowed")
     if not all(math.isfinite(v) for v in values):
         raise ParameterError(name, f"expected finite numbers, got {text!r}")
     return values
 
 
-def parse_tile(text):
-    """A tile from text: rows separated by ';' or new lines, entries by spaces or commas (0-based)."""
-    rows = [r for r in str(text).replace("\n", ";").split(";") if r.strip()]
+def parse_tile(text, *, max_side=MAX_TILE, max_text=MAX_TEXT):
+    """A tile from text: rows separated by ';' or new lines, entries by spaces or commas (0-based).
+
+    At most ``max_side`` rows and columns.
+    """
+    text = _check_text(text, "custom_tile", max_text)
+    rows = [r for r in text.replace("\n", ";").split(";") if r.strip()]
     try:
         tile = [[int(v) for v in r.replace(",", " ").split()] for r in rows]
     except ValueError:
         raise ParameterError("custom_tile", f"entries must be whole sensor indices, got {text!r}") from None
     if not tile or len({len(r) for r in tile}) != 1 or not tile[0]:
         raise ParameterError("custom_tile", "rows must be non-empty and of equal length, e.g. '1 0; 2 1'")
-    if len(tile) * len(tile[0]) > 64 * 64:
-        raise ParameterError("custom_tile", f"at most 64 x 64 entries, got {len(tile)} x {len(tile[0])}")
+    if len(tile) > max_side or len(tile[0]) > max_side:
+        raise ParameterError("custom_tile", f"is {len(tile)} x {len(tile[0])}; at most {max_side} x {max_side} is allowed")
+    if min(min(r) for r in tile) < 0:
+        raise ParameterError("custom_tile", "sensor indices start at 0; negative entries are not allowed")
     return np.array(tile)
 
 
@@ -155,8 +183,8 @@ def check_params(values, where="design"):
                 raise ParameterError(label, f"unknown scene {value!r}: expected a shipped scene "
                                             f"({', '.join(_scene_names())}) or the path of a .Simg / .npz file")
         elif kind == "text":
-            if not isinstance(value, str):
-                raise ParameterError(label, f"expected text, got {value!r}")
+            if not isinstance(value, str) or len(value) > MAX_TEXT:
+                raise ParameterError(label, f"expected text of at most {MAX_TEXT} characters, got {str(value)[:40]!r}")
         else:
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ParameterError(label, f"expected a number, got {value!r}")
@@ -181,7 +209,7 @@ def _preset(name):
     return camera_preset(name)
 
 
-def _tile(params, cam):
+def _tile(params, cam, max_side=MAX_TILE, max_text=MAX_TEXT):
     """The mosaic tile the parameters choose (validated against the sensors by the simulation)."""
     from ..simulation import BAYER, FOUR_SENSOR_GRID
 
@@ -194,10 +222,10 @@ def _tile(params, cam):
         return FOUR_SENSOR_GRID
     if mosaic == "none":
         return None
-    return parse_tile(params["custom_tile"])
+    return parse_tile(params["custom_tile"], max_side=max_side, max_text=max_text)
 
 
-def camera_from_params(params):
+def camera_from_params(params, *, max_sensors=MAX_SENSORS, max_tile=MAX_TILE, max_text=MAX_TEXT):
     """The :class:`~camsim_core.Camera` a design describes.
 
     The preset (or ``mixture-ALPHA``: (1 - alpha) cones + alpha DCS-200,
@@ -205,6 +233,8 @@ def camera_from_params(params):
     (nm) for the Gaussian presets, the chosen mosaic, and distance (m),
     exposure (s), f-stop, Gaussian noise sigma (digital units, zero mean),
     bits (0 = unquantized) and seed. Raises CamsimError on a bad combination.
+    ``max_sensors``, ``max_tile`` and ``max_text`` bound the text-described
+    parameters (Gaussian centres and widths, the custom tile).
     """
     from ..datasets.sensors import gaussian_sensors
 
@@ -215,13 +245,13 @@ def camera_from_params(params):
         cam = _preset(p["camera"])
     changes = {}
     if p["camera"] in GAUSSIAN_DEFAULTS:
-        centers = parse_numbers(p["gaussian_centers"], "gaussian_centers")
-        widths = parse_numbers(p["gaussian_widths"], "gaussian_widths")
+        centers = parse_numbers(p["gaussian_centers"], "gaussian_centers", max_count=max_sensors, max_text=max_text)
+        widths = parse_numbers(p["gaussian_widths"], "gaussian_widths", max_count=max_sensors, max_text=max_text)
         if len(widths) not in (1, len(centers)):
             raise ParameterError("gaussian_widths", f"give one width or one per sensor ({len(centers)})")
         names = ("R", "G", "B") if len(centers) == 3 and p["camera"] == "gaussian-3" else None
         changes["sensors"] = gaussian_sensors(centers, widths if len(widths) > 1 else widths[0], names=names)
-    changes["mosaic"] = _tile(p, cam)
+    changes["mosaic"] = _tile(p, cam, max_tile, max_text)
     changes.update(
         distance=float(p["distance"]),
         exposure=float(p["exposure"]),
@@ -249,6 +279,7 @@ def processing_from_params(params, metrics=None):
         illuminant=None if p["illuminant"] == "known" else p["illuminant"],
         monitor=p["monitor"],
         metrics=tuple(metrics),
+        viewing=p["viewing"],
     )
 
 
@@ -401,14 +432,8 @@ def read_design_file(path):
     pinned = values.pop("pinned", None) or []
     sweep = values.pop("sweep", None) or None
     own = check_params(values, str(path))
-    designs = []
-    if not isinstance(pinned, list):
-        raise ParameterError(f"{path}: pinned", "expected a list of {name, params} objects")
-    for i, entry in enumerate(pinned):
-        if not isinstance(entry, dict) or not isinstance(entry.get("params"), dict):
-            raise ParameterError(f"{path}: pinned[{i}]", "expected an object {name, params}")
-        pname = str(entry.get("name") or f"design {i + 1}")
-        designs.append((pname, check_params({"scene": own["scene"], **entry["params"]}, f"{path}: {pname}")))
+    shared = {k: own[k] for k in _SHARED}  # the scene and viewing of the file's comparison
+    designs = [(e["name"], {**e["params"], **shared}) for e in check_pinned(pinned, f"{path}: pinned")]
     if not any(_same_design(own, d) for _, d in designs):
         designs.insert(0, (path.stem, own))
     if sweep is not None:
@@ -416,6 +441,30 @@ def read_design_file(path):
 
         sweep = check_sweep(sweep, where=f"{path}: sweep")
     return designs, sweep
+
+
+def check_pinned(pinned, where="pinned"):
+    """Validated pinned designs: a list of at most :data:`MAX_PINNED` ``{"name", "params"}`` objects.
+
+    ``params`` are a design's camera and processing settings (the scene is
+    shared by the comparison and not stored); names must be unique text.
+    """
+    if not isinstance(pinned, list):
+        raise ParameterError(where, "expected a list of {name, params} objects")
+    if len(pinned) > MAX_PINNED:
+        raise ParameterError(where, f"at most {MAX_PINNED} pinned designs, got {len(pinned)}")
+    out, names = [], set()
+    for i, entry in enumerate(pinned):
+        if not isinstance(entry, dict) or set(entry) - {"name", "params"} or not isinstance(entry.get("params"), dict):
+            raise ParameterError(f"{where}[{i}]", "expected an object {name, params}")
+        name = entry.get("name")
+        if not isinstance(name, str) or not name.strip() or len(name) > 60 or name in names:
+            raise ParameterError(f"{where}[{i}]: name", f"expected a unique, non-empty name of at most 60 characters, got {name!r}")
+        names.add(name)
+        params = {k: v for k, v in entry["params"].items() if k not in _SHARED}
+        full = check_params(params, f"{where}: {name}")
+        out.append({"name": name, "params": {k: v for k, v in full.items() if k not in _SHARED}})
+    return out
 
 
 def _same_design(a, b, skip=("wavelength", "metric")):
