@@ -141,7 +141,11 @@ def iter_sweep(designs, parameter, values, *, scene=None, max_workers=2, cancel=
     a parameter that does not apply to a design raises ParameterError before anything runs.
     """
     designs, values = _check(designs, parameter, values)
-    cancel = cancel or threading.Event()
+    return _points(designs, parameter, values, scene, max_workers, cancel or threading.Event(), metrics)
+
+
+def _points(designs, parameter, values, scene, max_workers, cancel, metrics):
+    """The generator behind :func:`iter_sweep` (arguments already checked)."""
     out = queue.Queue()
     done = object()
 
