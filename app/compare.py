@@ -111,8 +111,8 @@ class CompareView:
         self._computing = False
         self.ab = None  # (name A, name B, ab_difference) shown
         self._doc = pn.state.curdoc
+        self._built = False  # the plots are made when there is something to compare (a light page until then)
         self._build_widgets()
-        self._build_plots()
         state.param.watch(self._on_pinned, ["pinned"])
         state.param.watch(lambda e: self.refresh(), ["scene"])
         state.param.watch(lambda e: self.update(), ["result", "metric"])
@@ -156,9 +156,22 @@ class CompareView:
         self.sweep_message = pn.pane.Markdown("Pin designs, choose a parameter and values, run: one curve per design. "
                                               "Click a point to load that configuration.",
                                               css_classes=["camsim-sweep-message"], sizing_mode="stretch_width")
+        self.views = pn.Column(sizing_mode="stretch_width")  # the plots, made on first use
+        self.sweep_area = pn.Column()
         self.download = w.FileDownload(callback=self.report_bytes, filename="camsim-report.html",
                                        label="Download the report (HTML)", button_type="success",
                                        css_classes=["w-report"], width=260)
+
+    def _ensure_plots(self):
+        """Make the plots (once) and put them on the tab."""
+        if self._built:
+            return
+        self._built = True
+        self._build_plots()
+        self.views[:] = [pn.Row(*self.render_panes), pn.Row(*self.de_panes), pn.Row(self.hist_pane, self.table),
+                         pn.pane.Markdown("### A/B difference"), pn.Row(self.a_select, self.b_select), self.ab_text,
+                         pn.Row(*self.ab_panes)]
+        self.sweep_area[:] = [self.sweep_pane]
 
     def _build_plots(self):
         blank = np.zeros((2, 2, 3))
@@ -182,22 +195,20 @@ class CompareView:
                 hv.opts.Image(cmap="inferno", colorbar=True, **IMAGE_OPTS)),
                 css_classes=["camsim-compare-de"], linked_axes=True, visible=False)
             for p in self.de_pipes]
-        self.hist_pipe = streams.Pipe(data=([], "CIELAB"))
-        self.hist_pane = pn.pane.HoloViews(hv.DynamicMap(self._histograms, streams=[self.hist_pipe]),
-                                           css_classes=["camsim-compare-hist"], linked_axes=False)
+        # the histogram and the sweep plot change their number of curves: their pane gets a new overlay
+        self.hist_pane = pn.pane.HoloViews(self._histograms(([], "CIELAB")), css_classes=["camsim-compare-hist"],
+                                           linked_axes=False)
         self.ab_pipe = streams.Pipe(data=(np.zeros((2, 2)), np.zeros((2, 2, 3)), 20.0))
         ab_de = hv.DynamicMap(lambda data: hv.Image(data[0], bounds=_bounds(data[0].shape), vdims=["dE"]).opts(
             clim=(0, data[2]), title="A/B: dE between the renderings"), streams=[self.ab_pipe]).opts(
             hv.opts.Image(cmap="inferno", colorbar=True, **IMAGE_OPTS))
         ab_wins = hv.DynamicMap(lambda data: hv.RGB(data[1], bounds=_bounds(data[1].shape)).opts(
-            title="closer to the ideal image: A blue, B orange"), streams=[self.ab_pipe]).opts(hv.opts.RGB(**IMAGE_OPTS))
+            title="closer to ideal: A blue, B orange"), streams=[self.ab_pipe]).opts(hv.opts.RGB(**IMAGE_OPTS))
         self.ab_panes = [pn.pane.HoloViews(ab_de, css_classes=["camsim-ab-de"], linked_axes=True),
                          pn.pane.HoloViews(ab_wins, css_classes=["camsim-ab-wins"], linked_axes=True)]
-        self.sweep_pipe = streams.Pipe(data=([], "noise_sigma", "CIELAB"))
-        sweep_map = hv.DynamicMap(self._sweep_plot, streams=[self.sweep_pipe])
-        self.tap = streams.Tap(source=sweep_map, x=None, y=None)
-        self.tap.add_subscriber(self.on_tap)
-        self.sweep_pane = pn.pane.HoloViews(sweep_map, css_classes=["camsim-sweep-plot"], linked_axes=False)
+        self.sweep_pane = pn.pane.HoloViews(self._sweep_plot(([], "noise_sigma", "CIELAB")),
+                                            css_classes=["camsim-sweep-plot"], linked_axes=False)
+        self._tap = None
 
     # -- pinning -----------------------------------------------------------------
     def pin(self, name=""):
@@ -348,6 +359,12 @@ class CompareView:
         metric = self.state.metric
         maps = [r.error_map(metric) for r in results if r.error_map(metric) is not None]
         top = shared_scale(maps) if maps else 20.0
+        self.table.object = self._table(results)
+        if not (self._built or self.state.pinned):  # only the live design: its table, no plots yet
+            self.views[:] = [self.table]
+            self._status(results, top)
+            return
+        self._ensure_plots()
         for i in range(SLOTS):
             if i < len(results):
                 r = results[i]
@@ -356,9 +373,8 @@ class CompareView:
                 self.render_pipes[i].send((np.clip(r.rendered / 255.0, 0, 1), f"{r.name}: rendered"))
                 self.de_pipes[i].send((de, f"{r.name}: {metric if r.error_map(metric) is not None else 'CIELAB'} dE", top))
             self.render_panes[i].visible = self.de_panes[i].visible = i < len(results)
-        self.hist_pipe.send(([(r.name, r.error_map(metric) if r.error_map(metric) is not None else r.delta_e)
-                              for r in results], metric))
-        self.table.object = self._table(results)
+        self.hist_pane.object = self._histograms((
+            [(r.name, r.error_map(metric) if r.error_map(metric) is not None else r.delta_e) for r in results], metric))
         names = [r.name for r in results]
         a, b = self.a_select.value, self.b_select.value
         self.a_select.options = names
@@ -410,6 +426,8 @@ class CompareView:
 
     # -- A/B -----------------------------------------------------------------------
     def update_ab(self, results=None):
+        if not self._built:
+            return
         results = results if results is not None else self.designs()
         by = {r.name: r for r in results}
         a, b = by.get(self.a_select.value), by.get(self.b_select.value)
@@ -506,14 +524,22 @@ class CompareView:
     def _add_point(self, cancel, point):
         if cancel is not self._sweep_cancel:
             return  # a newer sweep replaced this one
+        self._ensure_plots()
         self.points.append(point)
         self.sweep_progress.value = len(self.points)
-        self.sweep_pipe.send((list(self.points), self.state.sweep["parameter"], self.state.metric))
+        self.show_sweep()
         errors = [p for p in self.points if p.error]
         if len(self.points) == self.sweep_total:
             self.sweep_message.object = (f"Done: {len(self.points)} points. Click a point to load its configuration."
                                          + (f" {len(errors)} refused: {errors[0].error}" if errors else ""))
         self._status()
+
+    def show_sweep(self):
+        """Draw the sweep's points; a click on the plot loads the nearest point."""
+        plot = self._sweep_plot((list(self.points), self.state.sweep["parameter"], self.state.metric))
+        self._tap = streams.Tap(source=plot, x=None, y=None)
+        self._tap.add_subscriber(self.on_tap)
+        self.sweep_pane.object = plot
 
     def _sweep_plot(self, data):
         points, parameter, metric = data
@@ -526,9 +552,10 @@ class CompareView:
             pts = sorted((p.value, p.measure(metric)) for p in points if p.design == i and p.measures)
             colour = DESIGN_COLOURS[i % len(DESIGN_COLOURS)]
             layers.append(hv.Curve(pts, label, f"mean {metric} dE", label=name).opts(color=colour))
-            layers.append(hv.Scatter(pts, label, f"mean {metric} dE", label=name).opts(color=colour, size=8))
+            layers.append(hv.Scatter(pts, label, f"mean {metric} dE", label=name).opts(color=colour, size=8,
+                                                                                        tools=["tap"]))
         return hv.Overlay(layers).opts(frame_width=520, frame_height=240, title=f"Mean {metric} dE against {label}",
-                                       legend_position="top_left", show_legend=True, tools=["tap"])
+                                       legend_position="top_left", show_legend=True)
 
     def nearest_point(self, x, y):
         """The sweep point nearest to (x, y) in the plot, distances relative to the axes' spans."""
@@ -596,14 +623,10 @@ class CompareView:
         return pn.Column(
             pn.pane.Markdown(f"Pin up to {MAX_PINNED} designs; they are compared with the live design on the same "
                              "scene. Images share zoom and pan; every dE map uses one colour scale."),
-            pin_row, pn.Row(self.progress, self.download), self.message,
-            pn.Row(*self.render_panes), pn.Row(*self.de_panes),
-            pn.Row(self.hist_pane, self.table),
-            pn.pane.Markdown("### A/B difference"), pn.Row(self.a_select, self.b_select), self.ab_text,
-            pn.Row(*self.ab_panes),
+            pin_row, pn.Row(self.progress, self.download), self.message, self.views,
             pn.pane.Markdown("### Sweep"),
             pn.Row(self.sweep_parameter, self.sweep_values, self.sweep_button, self.sweep_progress),
-            self.sweep_message, self.sweep_pane,
+            self.sweep_message, self.sweep_area,
             pn.pane.Markdown("**Comparison status** (for tests and scripts):"), self.status,
             name="Compare designs",
         )
