@@ -114,7 +114,7 @@ class CompareView:
         self._built = False  # the plots are made when there is something to compare (a light page until then)
         self._build_widgets()
         state.param.watch(self._on_pinned, ["pinned"])
-        state.param.watch(lambda e: self.refresh(), ["scene"])
+        state.param.watch(lambda e: self.refresh(), ["scene", "viewing"])
         state.param.watch(lambda e: self.update(), ["result", "metric"])
         state.param.watch(self._on_sweep, ["sweep"])
         self._on_pinned()
@@ -261,9 +261,14 @@ class CompareView:
         self.refresh()
 
     # -- computing pinned designs -------------------------------------------------
+    def _shared(self):
+        """What the designs share: the scene and how the rendered images are viewed (S-CIELAB)."""
+        return {"scene": self.state.scene, "viewing": self.state.viewing}
+
     def _scene_key(self):
         name = self.state.scene
-        return name if not name.startswith(("upload:", "file:")) else f"{name}@{id(self.state.scene_object())}"
+        scene = name if not name.startswith(("upload:", "file:")) else f"{name}@{id(self.state.scene_object())}"
+        return (scene, self.state.viewing)
 
     def refresh(self):
         """Compute the pinned designs not in the store (in a background thread on a server); then update."""
@@ -294,7 +299,7 @@ class CompareView:
         for i, p in enumerate(missing):
             if generation != self._generation:
                 return
-            params = {**p["params"], "scene": self.state.scene}
+            params = {**p["params"], **self._shared()}
             try:
                 result = evaluate_design(params, p["name"], scene=scene)
                 self.store.put(key, params, result)
@@ -479,9 +484,8 @@ class CompareView:
 
     def sweep_designs(self):
         """(name, params) of the designs swept: the pinned ones, or the live one when none is pinned."""
-        scene = self.state.scene
         if self.state.pinned:
-            return [(p["name"], {**p["params"], "scene": scene}) for p in self.state.pinned]
+            return [(p["name"], {**p["params"], **self._shared()}) for p in self.state.pinned]
         return [(LIVE, self.state.design_params())]
 
     def start_sweep(self):
@@ -599,7 +603,7 @@ class CompareView:
             "sweep": None if not sweep else {
                 "parameter": sweep["parameter"], "values": sweep["values"], "total": self.sweep_total,
                 "points": [{"design": p.name, "value": p.value, "measures": p.measures, "error": p.error}
-                           for p in self.points]},
+                           for p in sorted(self.points, key=lambda p: (p.design, p.value))]},
             "store": {"entries": len(self.store), "megabytes": round(self.store.nbytes / 1e6, 1)},
         }, separators=(",", ":"))
 
