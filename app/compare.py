@@ -36,7 +36,7 @@ import panel as pn
 from holoviews import streams
 
 from camsim_core.errors import CamsimError
-from camsim_core.review.design import (DESIGN_PARAMETERS, MAX_PINNED, _SHARED, check_pinned, differing_parameters,
+from camsim_core.review.design import (DESIGN_DEFAULTS, MAX_PINNED, _SHARED, check_pinned, differing_parameters,
                                        evaluate_design, result_from_pipeline)
 from camsim_core.review.difference import ab_difference
 from camsim_core.review.report import DESIGN_COLOURS, report_html, shared_scale
@@ -59,8 +59,8 @@ def _bounds(shape):
 
 
 def _design_only(params):
-    """A design's own settings: everything but what the comparison shares (scene, metric, wavelength)."""
-    return {k: v for k, v in params.items() if k in DESIGN_PARAMETERS and k not in _SHARED}
+    """A design's own settings, every one (defaults filled in), but what the comparison shares (scene, viewing...)."""
+    return {k: v for k, v in dict(DESIGN_DEFAULTS, **params).items() if k not in _SHARED}
 
 
 class DesignStore:

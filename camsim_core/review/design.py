@@ -446,8 +446,9 @@ def read_design_file(path):
 def check_pinned(pinned, where="pinned"):
     """Validated pinned designs: a list of at most :data:`MAX_PINNED` ``{"name", "params"}`` objects.
 
-    ``params`` are a design's camera and processing settings (the scene is
-    shared by the comparison and not stored); names must be unique text.
+    ``params`` are a design's camera and processing settings that differ from
+    :data:`DESIGN_DEFAULTS` (the scene and the viewing are shared by the
+    comparison and not stored); names must be unique text.
     """
     if not isinstance(pinned, list):
         raise ParameterError(where, "expected a list of {name, params} objects")
@@ -463,9 +464,12 @@ def check_pinned(pinned, where="pinned"):
         names.add(name)
         params = {k: v for k, v in entry["params"].items() if k not in _SHARED}
         full = check_params(params, f"{where}: {name}")
-        out.append({"name": name, "params": {k: v for k, v in full.items() if k not in _SHARED}})
+        # only what differs from the defaults: short links, and the same entry however it was written
+        out.append({"name": name, "params": {k: v for k, v in full.items()
+                                             if k not in _SHARED and v != DESIGN_DEFAULTS[k]}})
     return out
 
 
-def _same_design(a, b, skip=("wavelength", "metric")):
+def _same_design(a, b, skip=_SHARED):
+    a, b = dict(DESIGN_DEFAULTS, **a), dict(DESIGN_DEFAULTS, **b)
     return all(a[k] == b[k] for k in DESIGN_PARAMETERS if k not in skip)
