@@ -14,8 +14,9 @@ import weakref
 import panel as pn
 
 from . import state as state_module
+from .compare import compare_tab
 from .quality import QualityView
-from .state import BITS_CHOICES, URL_PARAMETERS, ExplorerState
+from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, ExplorerState
 from .upload import BoundedUpload
 from .views import CameraView, ResultsView, SceneView
 
@@ -188,7 +189,7 @@ def create_app(scene=None):
             state.message = (f"The link's values for {', '.join(too_long)} are longer than "
                              f"{state_module.LIMITS.max_text} characters and were ignored")
         else:
-            pn.state.location.sync(state, {p: p for p in URL_PARAMETERS}, on_error=on_error)
+            pn.state.location.sync(state, {p: p for p in URL_PARAMETERS + COMPARE_PARAMETERS}, on_error=on_error)
     results = ResultsView(state)
     scene_view = SceneView(state)
     camera_view = CameraView(state)
@@ -220,7 +221,7 @@ def create_app(scene=None):
     )
     camera_tab = pn.Column(camera_view.info, pn.Row(camera_view.curves, camera_view.tile), name="Camera")
     tabs = pn.Tabs(results_tab, scene_tab, camera_tab, ("Image quality", QualityView(state).panel()),
-                   ("Experiments", _experiments_tab()),
+                   compare_tab(state), ("Experiments", _experiments_tab()),
                    css_classes=["camsim-tabs"], dynamic=False)
     header = pn.pane.Markdown("## camsim explorer: a camera design on a hyperspectral scene", margin=(0, 10))
     page = pn.Column(
@@ -244,4 +245,6 @@ def _long_url_values(search):
         pairs = parse_qsl(str(search or "").lstrip("?"), keep_blank_values=True, max_num_fields=200)
     except ValueError:
         return ["(too many fields)"]
-    return sorted({k[:40] for k, v in pairs if len(v) > limit or len(k) > limit})
+    # pinned designs and the sweep are JSON: bounded like a parameters file
+    big = state_module.LIMITS.max_json_bytes
+    return sorted({k[:40] for k, v in pairs if len(v) > (big if k in COMPARE_PARAMETERS else limit) or len(k) > limit})

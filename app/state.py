@@ -14,34 +14,27 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 import param
 
 import camsim_core as cc
-from camsim_core.cache import Pipeline, Processing
-from camsim_core.camera import camera_preset
-from camsim_core.datasets.sensors import gaussian_sensors
+from camsim_core.cache import Pipeline
 from camsim_core.errors import CamsimError, ParameterError
 from camsim_core.io.upload import UploadLimits
 from camsim_core.io.upload import load_upload as _engine_load_upload
-from camsim_core.simulation import BAYER, FOUR_SENSOR_GRID
+from camsim_core.review import design as _design
+from camsim_core.review.design import (CAMERA_CHOICES, GAUSSIAN_DEFAULTS, ILLUMINANT_CHOICES, METRIC_CHOICES,
+                                       MOSAIC_CHOICES, RENDER_CHOICES, camera_from_params, check_pinned,
+                                       processing_from_params)
+from camsim_core.review.sweep import check_sweep
 
-__all__ = ["ExplorerState", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_PARAMETERS", "parse_tile", "parse_numbers",
-           "load_upload", "ServerLimits", "LIMITS", "json_depth"]
+__all__ = ["ExplorerState", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_PARAMETERS", "COMPARE_PARAMETERS", "parse_tile",
+           "parse_numbers", "load_upload", "ServerLimits", "LIMITS", "json_depth"]
 
-#: Camera presets offered (``mixture`` uses the alpha slider).
-CAMERA_CHOICES = tuple(cc.CAMERA_NAMES) + ("mixture",)
-#: Mosaic layouts offered: the camera's own, Bayer phases, the 2 x 2 four-sensor grid, none, or a custom tile.
-MOSAIC_CHOICES = ("preset",) + tuple(BAYER) + ("4-sensor grid", "none", "custom")
 #: Bits offered; 0 means unquantized.
 BITS_CHOICES = {"8": 8, "10": 10, "12": 12, "16": 16, "unquantized": 0}
-RENDER_CHOICES = ("baseline", "illuminant")
-ILLUMINANT_CHOICES = ("known", "gray-world", "max-rgb")
-METRIC_CHOICES = ("CIELAB", "S-CIELAB")
-GAUSSIAN_DEFAULTS = {"gaussian-3": ("640, 520, 460", "27"), "gaussian-4": ("460, 520, 580, 640", "27")}
 
 #: The parameters a URL carries (name in the URL = parameter name).
 URL_PARAMETERS = (
@@ -49,6 +42,8 @@ URL_PARAMETERS = (
     "distance", "exposure", "f_stop", "noise_sigma", "bits", "seed",
     "demosaic_method", "render_method", "illuminant", "monitor", "metric", "viewing", "wavelength",
 )
+#: The comparison's part of the shareable state: pinned designs and the sweep (see app.compare).
+COMPARE_PARAMETERS = ("pinned", "sweep")
 
 
 def demosaic_methods():
@@ -59,12 +54,6 @@ def demosaic_methods():
     if methods:
         return tuple(methods)
     return ("bilinear",)
-
-
-@lru_cache(maxsize=None)
-def preset(name):
-    """A shipped camera (read once per process; cameras are immutable)."""
-    return camera_preset(name)
 
 
 @dataclass
@@ -102,27 +91,9 @@ class ServerLimits:
 LIMITS = ServerLimits()
 
 
-def _check_text(text, name):
-    text = str(text)
-    if len(text) > LIMITS.max_text:
-        raise ParameterError(name, f"is {len(text)} characters long; at most {LIMITS.max_text} are accepted")
-    return text
-
-
 def parse_numbers(text, name):
     """Comma- or space-separated finite numbers from a text field (at most ``LIMITS.max_sensors``)."""
-    text = _check_text(text, name)
-    try:
-        values = [float(v) for v in text.replace(",", " ").split()]
-    except ValueError:
-        raise ParameterError(name, f"expected numbers separated by commas, got {text!r}") from None
-    if not values:
-        raise ParameterError(name, "expected at least one number")
-    if len(values) > LIMITS.max_sensors:
-        raise ParameterError(name, f"{len(values)} numbers given; at most {LIMITS.max_sensors} sensors are allowed")
-    if not all(np.isfinite(values)):
-        raise ParameterError(name, f"expected finite numbers, got {text!r}")
-    return values
+    return _design.parse_numbers(text, name, max_count=LIMITS.max_sensors, max_text=LIMITS.max_text)
 
 
 def parse_tile(text):
@@ -130,19 +101,7 @@ def parse_tile(text):
 
     At most ``LIMITS.max_tile`` rows and columns.
     """
-    text = _check_text(text, "custom_tile")
-    rows = [r for r in text.replace("\n", ";").split(";") if r.strip()]
-    try:
-        tile = [[int(v) for v in r.replace(",", " ").split()] for r in rows]
-    except ValueError:
-        raise ParameterError("custom_tile", f"entries must be whole sensor indices, got {text!r}") from None
-    if not tile or len({len(r) for r in tile}) != 1 or not tile[0]:
-        raise ParameterError("custom_tile", "rows must be non-empty and of equal length, e.g. '1 0; 2 1'")
-    if len(tile) > LIMITS.max_tile or len(tile[0]) > LIMITS.max_tile:
-        raise ParameterError("custom_tile", f"is {len(tile)} x {len(tile[0])}; at most {LIMITS.max_tile} x {LIMITS.max_tile} is allowed")
-    if min(min(r) for r in tile) < 0:
-        raise ParameterError("custom_tile", "sensor indices start at 0; negative entries are not allowed")
-    return np.array(tile)
+    return _design.parse_tile(text, max_side=LIMITS.max_tile, max_text=LIMITS.max_text)
 
 
 def json_depth(text):
@@ -206,6 +165,9 @@ class ExplorerState(param.Parameterized):
         doc="How the rendered image is viewed, which fixes S-CIELAB's samples per degree: 'camera' (the chapter's, "
         "the camera's angular resolution), 'camera/10' (the original's example), 'spd:S', 'display:PITCHmm@DISTANCEm'",
     )
+    # the comparison (app.compare): pinned designs [{name, params}] and the sweep {parameter, values}
+    pinned = param.List(default=[], precedence=-1, doc="Pinned designs (at most four)")
+    sweep = param.Dict(default=None, allow_None=True, precedence=-1, doc="The sweep shown in the comparison")
     # outputs (not user parameters)
     result = param.Parameter(default=None, precedence=-1, doc="Last good pipeline result")
     message = param.String(default="", precedence=-1, doc="Last problem, for the page's alert")
@@ -226,53 +188,17 @@ class ExplorerState(param.Parameterized):
             return self._uploads[self.scene]
         return cc.load_scene(self.scene)
 
+    def design_params(self):
+        """The live design's parameters (the explorer's own, as plain JSON values)."""
+        return {p: getattr(self, p) for p in URL_PARAMETERS}
+
     def camera_object(self):
         """The Camera the parameters describe; raises CamsimError on a bad combination."""
-        if self.camera == "mixture":
-            cam = preset(f"mixture-{round(float(self.alpha), 3):g}")
-        else:
-            cam = preset(self.camera)
-        changes = {}
-        if self.camera in GAUSSIAN_DEFAULTS:
-            centers = parse_numbers(self.gaussian_centers, "gaussian_centers")
-            widths = parse_numbers(self.gaussian_widths, "gaussian_widths")
-            if len(widths) not in (1, len(centers)):
-                raise ParameterError("gaussian_widths", f"give one width or one per sensor ({len(centers)})")
-            names = ("R", "G", "B") if len(centers) == 3 and self.camera == "gaussian-3" else None
-            changes["sensors"] = gaussian_sensors(centers, widths if len(widths) > 1 else widths[0], names=names)
-        changes["mosaic"] = self.tile(cam)
-        changes.update(
-            distance=float(self.distance),
-            exposure=float(self.exposure),
-            f_stop=float(self.f_stop),
-            noise_sigma=float(self.noise_sigma),
-            noise_mean=0.0,
-            bits=int(self.bits) or None,
-            seed=int(self.seed),
-        )
-        return cam.replace(**changes)
-
-    def tile(self, cam):
-        """The mosaic tile chosen (before validation against the sensors)."""
-        if self.mosaic == "preset":
-            return cam.mosaic
-        if self.mosaic in BAYER:
-            return BAYER[self.mosaic]
-        if self.mosaic == "4-sensor grid":
-            return FOUR_SENSOR_GRID
-        if self.mosaic == "none":
-            return None
-        return parse_tile(self.custom_tile)
+        return camera_from_params(self.design_params(), max_sensors=LIMITS.max_sensors, max_tile=LIMITS.max_tile,
+                                  max_text=LIMITS.max_text)
 
     def processing(self):
-        return Processing(
-            demosaic=self.demosaic_method,
-            render=self.render_method,
-            illuminant=None if self.illuminant == "known" else self.illuminant,
-            monitor=self.monitor,
-            metrics=("cielab",) if self.metric == "CIELAB" else ("cielab", "scielab"),
-            viewing=self.viewing,
-        )
+        return processing_from_params(self.design_params())
 
     # -- running -------------------------------------------------------------
     def _on_change(self, *events):
@@ -351,8 +277,8 @@ class ExplorerState(param.Parameterized):
 
     # -- reproducible state ----------------------------------------------------
     def to_dict(self):
-        """The parameters as plain JSON values."""
-        return {p: getattr(self, p) for p in URL_PARAMETERS}
+        """The parameters as plain JSON values (with the pinned designs and the sweep)."""
+        return {**self.design_params(), "pinned": list(self.pinned), "sweep": self.sweep}
 
     def to_json(self):
         return json.dumps(self.to_dict(), indent=2)
@@ -376,14 +302,24 @@ class ExplorerState(param.Parameterized):
         if not isinstance(values, dict):
             self.message = "Parameters file must hold a JSON object {name: value}"
             return False
-        unknown = sorted(set(values) - set(URL_PARAMETERS))
+        unknown = sorted(set(values) - set(URL_PARAMETERS) - set(COMPARE_PARAMETERS))
         if unknown:
             self.message = f"Parameters file has unknown entries: {', '.join(unknown)[:200]}"
             return False
         for key, value in values.items():
+            if key in COMPARE_PARAMETERS:
+                continue  # checked below, entry by entry
             if isinstance(value, (list, dict)) or (isinstance(value, str) and len(value) > LIMITS.max_text):
                 self.message = f"Parameters file refused: {key} must be a single value of at most {LIMITS.max_text} characters"
                 return False
+        try:
+            if values.get("pinned"):
+                values["pinned"] = check_pinned(values["pinned"], "pinned")
+            if values.get("sweep"):
+                values["sweep"] = check_sweep(values["sweep"])
+        except CamsimError as exc:
+            self.message = f"Parameters file refused: {exc}"
+            return False
         before = self.to_dict()
         try:
             self._updating = True

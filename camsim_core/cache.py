@@ -226,7 +226,7 @@ class Pipeline:
 
         monitor = load_monitor(proc.monitor)
         t_dem, result.demosaiced = self._step(
-            "demosaic", (sim_token, proc.demosaic), lambda: demosaic(result.raw, proc.demosaic), result
+            "demosaic", (sim_token, proc.demosaic), lambda: _demosaic(result.raw, proc.demosaic, demosaic), result
         )
         t_ren = None
         if t_dem is not None:
@@ -289,6 +289,11 @@ def _ideal_key(ideal_cam):
     if ideal_cam.noise_model == "gaussian" and ideal_cam.noise_sigma == 0 and ideal_cam.noise_mean == 0:
         skip.add("seed")  # a noiseless camera draws no random numbers
     return _camera_key(ideal_cam, tuple(f for f in _all_fields(ideal_cam) if f not in skip))
+
+
+def _demosaic(raw, method, demosaic):
+    """Demosaic a mosaiced raw image; a full-colour one (no mosaic) passes through unchanged."""
+    return demosaic(raw, method) if raw.mosaiced else raw
 
 
 def _data(x):

@@ -1,0 +1,644 @@
+"""The "Compare designs" tab: pinned camera designs side by side, A/B difference, a live sweep, a report.
+
+The science is the engine's (:mod:`camsim_core.review`): a pinned design is
+evaluated by :func:`~camsim_core.review.design.evaluate_design` (rendered
+image, CIELAB and S-CIELAB maps and their statistics), a sweep by
+:func:`~camsim_core.review.sweep.iter_sweep`, the A/B map by
+:func:`~camsim_core.review.difference.ab_difference` and the report by
+:func:`~camsim_core.review.report.report_html`. This module only keeps the
+results and shows them.
+
+* The designs compared are the pinned ones (at most four, in the state's
+  ``pinned`` list, so a link or the JSON file carries them) and the live
+  design, unless it equals a pinned one.
+* Each pinned design is computed once per scene and kept (a small LRU of
+  results, no pipelines: memory is bounded); a change of scene recomputes
+  them in a background thread with a visible progress state. The live design
+  is the explorer's own result: comparing costs it nothing.
+* Image views share one coordinate system (camera pixels ``x``, ``y``), so
+  their zoom and pan are linked; all dE maps use one colour scale.
+* The sweep runs in background threads; points arrive on the page as they
+  are computed; a click on a point loads that configuration into the live design.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import threading
+from collections import OrderedDict
+from functools import partial
+
+import holoviews as hv
+import holoviews.plotting.bokeh  # noqa: F401  (the bokeh backend, for .opts)
+import numpy as np
+import panel as pn
+from holoviews import streams
+
+from camsim_core.errors import CamsimError
+from camsim_core.review.design import (DESIGN_DEFAULTS, MAX_PINNED, _SHARED, check_pinned, differing_parameters,
+                                       evaluate_design, result_from_pipeline)
+from camsim_core.review.difference import ab_difference
+from camsim_core.review.report import DESIGN_COLOURS, report_html, shared_scale
+from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
+
+hv.Store.set_current_backend("bokeh")
+
+__all__ = ["CompareView", "DesignStore", "compare_tab"]
+
+LIVE = "live"
+SLOTS = MAX_PINNED + 1
+IMAGE_OPTS = dict(frame_width=250, data_aspect=1, xaxis=None, yaxis=None, toolbar="above",
+                  tools=["hover"], active_tools=["wheel_zoom"])
+_WIN_COLOURS = np.array([[31, 119, 180], [255, 127, 14], [200, 200, 200]]) / 255.0
+
+
+def _bounds(shape):
+    h, w = shape[:2]
+    return (0, 0, w, h)
+
+
+def _design_only(params):
+    """A design's own settings, every one (defaults filled in), but what the comparison shares (scene, viewing...)."""
+    return {k: v for k, v in dict(DESIGN_DEFAULTS, **params).items() if k not in _SHARED}
+
+
+class DesignStore:
+    """Evaluated designs by (scene, parameters): each computed once, at most ``size`` kept (least recently used out)."""
+
+    def __init__(self, size=2 * MAX_PINNED):
+        self.size = size
+        self._items = OrderedDict()
+        self._lock = threading.Lock()
+
+    @staticmethod
+    def key(scene_key, params):
+        return (scene_key, json.dumps(_design_only(params), sort_keys=True))
+
+    def get(self, scene_key, params):
+        with self._lock:
+            k = self.key(scene_key, params)
+            if k in self._items:
+                self._items.move_to_end(k)
+                return self._items[k]
+            return None
+
+    def put(self, scene_key, params, result):
+        with self._lock:
+            self._items[self.key(scene_key, params)] = result
+            while len(self._items) > self.size:
+                self._items.popitem(last=False)
+
+    def __len__(self):
+        return len(self._items)
+
+    @property
+    def nbytes(self):
+        return sum(r.nbytes for r in self._items.values())
+
+
+class CompareView:
+    """Everything on the Compare designs tab, following one :class:`~app.state.ExplorerState`."""
+
+    def __init__(self, state, store=None):
+        self.state = state
+        self.store = store or DesignStore()
+        self.errors = {}  # pinned name -> message
+        self.points = []  # SweepPoint list of the current sweep
+        self.sweep_total = 0
+        self._generation = 0
+        self._sweep_cancel = None
+        self._computing = False
+        self.ab = None  # (name A, name B, ab_difference) shown
+        self._doc = pn.state.curdoc
+        self._built = False  # the plots are made when there is something to compare (a light page until then)
+        self._build_widgets()
+        state.param.watch(self._on_pinned, ["pinned"])
+        state.param.watch(lambda e: self.refresh(), ["scene", "viewing"])
+        state.param.watch(lambda e: self.update(), ["result", "metric"])
+        state.param.watch(self._on_sweep, ["sweep"])
+        self._on_pinned()
+        if state.sweep:
+            self.start_sweep()
+
+    # -- widgets ---------------------------------------------------------------
+    def _build_widgets(self):
+        w = pn.widgets
+        self.name_input = w.TextInput(name="Name of the pinned design", placeholder="the camera's name",
+                                      css_classes=["w-pin-name"], width=220)
+        self.pin_button = w.Button(name="Pin this design", button_type="primary", css_classes=["w-pin"], width=140)
+        self.pin_button.on_click(lambda e: self.pin(self.name_input.value))
+        self.pinned_select = w.Select(name="Pinned design", options=[], css_classes=["w-pinned"], width=200)
+        self.rename_input = w.TextInput(name="New name", css_classes=["w-rename"], width=180)
+        self.rename_button = w.Button(name="Rename", css_classes=["w-rename-button"], width=90)
+        self.rename_button.on_click(lambda e: self.rename(self.pinned_select.value, self.rename_input.value))
+        self.unpin_button = w.Button(name="Unpin", css_classes=["w-unpin"], width=90)
+        self.unpin_button.on_click(lambda e: self.unpin(self.pinned_select.value))
+        self.message = pn.pane.Markdown("", css_classes=["camsim-compare-message"], sizing_mode="stretch_width")
+        self.progress = pn.indicators.Progress(name="designs", value=0, max=1, visible=False, width=300,
+                                               css_classes=["camsim-compare-progress"])
+        self.table = pn.pane.HTML("", css_classes=["camsim-compare-table"], sizing_mode="stretch_width")
+        self.status = pn.pane.Str("", css_classes=["camsim-compare-status"], sizing_mode="stretch_width",
+                                  styles={"font-size": "10px", "white-space": "pre-wrap", "word-break": "break-all"},
+                                  stylesheets=["pre { white-space: pre-wrap; word-break: break-all; }"])
+        self.a_select = w.Select(name="A", options=[], css_classes=["w-ab-a"], width=180)
+        self.b_select = w.Select(name="B", options=[], css_classes=["w-ab-b"], width=180)
+        self.a_select.param.watch(lambda e: self.update_ab(), "value")
+        self.b_select.param.watch(lambda e: self.update_ab(), "value")
+        self.ab_text = pn.pane.Markdown("", css_classes=["camsim-ab-text"], sizing_mode="stretch_width")
+        self.sweep_parameter = w.Select(name="Sweep parameter", options=list(SWEEP_PARAMETERS), value="noise_sigma",
+                                        css_classes=["w-sweep-parameter"], width=200)
+        self.sweep_values = w.TextInput(name="Values", value="0, 2, 4, 6, 8", css_classes=["w-sweep-values"], width=220)
+        self.sweep_button = w.Button(name="Run sweep", button_type="primary", css_classes=["w-sweep-run"], width=120)
+        self.sweep_button.on_click(lambda e: self.request_sweep(self.sweep_parameter.value, self.sweep_values.value))
+        self.sweep_progress = pn.indicators.Progress(name="sweep", value=0, max=1, width=300,
+                                                     css_classes=["camsim-sweep-progress"])
+        self.sweep_message = pn.pane.Markdown("Pin designs, choose a parameter and values, run: one curve per design. "
+                                              "Click a point to load that configuration.",
+                                              css_classes=["camsim-sweep-message"], sizing_mode="stretch_width")
+        self.views = pn.Column(sizing_mode="stretch_width")  # the plots, made on first use
+        self.sweep_area = pn.Column()
+        self.download = w.FileDownload(callback=self.report_bytes, filename="camsim-report.html",
+                                       label="Download the report (HTML)", button_type="success",
+                                       css_classes=["w-report"], width=260)
+
+    def _ensure_plots(self):
+        """Make the plots (once) and put them on the tab."""
+        if self._built:
+            return
+        self._built = True
+        self._build_plots()
+        self.views[:] = [pn.Row(*self.render_panes), pn.Row(*self.de_panes), pn.Row(self.hist_pane, self.table),
+                         pn.pane.Markdown("### A/B difference"), pn.Row(self.a_select, self.b_select), self.ab_text,
+                         pn.Row(*self.ab_panes)]
+        self.sweep_area[:] = [self.sweep_pane]
+
+    def _build_plots(self):
+        blank = np.zeros((2, 2, 3))
+        self.render_pipes = [streams.Pipe(data=(blank, "")) for _ in range(SLOTS)]
+        self.de_pipes = [streams.Pipe(data=(np.zeros((2, 2)), "", 20.0)) for _ in range(SLOTS)]
+
+        def show_rgb(data):
+            rgb, title = data
+            return hv.RGB(rgb, bounds=_bounds(rgb.shape)).opts(title=title)
+
+        def show_de(data):
+            de, title, top = data
+            return hv.Image(de, bounds=_bounds(de.shape), vdims=["dE"]).opts(title=title, clim=(0, top))
+
+        self.render_panes = [
+            pn.pane.HoloViews(hv.DynamicMap(show_rgb, streams=[p]).opts(hv.opts.RGB(**IMAGE_OPTS)),
+                              css_classes=["camsim-compare-rendered"], linked_axes=True, visible=False)
+            for p in self.render_pipes]
+        self.de_panes = [
+            pn.pane.HoloViews(hv.DynamicMap(show_de, streams=[p]).opts(
+                hv.opts.Image(cmap="inferno", colorbar=True, **IMAGE_OPTS)),
+                css_classes=["camsim-compare-de"], linked_axes=True, visible=False)
+            for p in self.de_pipes]
+        # the histogram and the sweep plot change their number of curves: their pane gets a new overlay
+        self.hist_pane = pn.pane.HoloViews(self._histograms(([], "CIELAB")), css_classes=["camsim-compare-hist"],
+                                           linked_axes=False)
+        self.ab_pipe = streams.Pipe(data=(np.zeros((2, 2)), np.zeros((2, 2, 3)), 20.0))
+        ab_de = hv.DynamicMap(lambda data: hv.Image(data[0], bounds=_bounds(data[0].shape), vdims=["dE"]).opts(
+            clim=(0, data[2]), title="A/B: dE between the renderings"), streams=[self.ab_pipe]).opts(
+            hv.opts.Image(cmap="inferno", colorbar=True, **IMAGE_OPTS))
+        ab_wins = hv.DynamicMap(lambda data: hv.RGB(data[1], bounds=_bounds(data[1].shape)).opts(
+            title="closer to ideal: A blue, B orange"), streams=[self.ab_pipe]).opts(hv.opts.RGB(**IMAGE_OPTS))
+        self.ab_panes = [pn.pane.HoloViews(ab_de, css_classes=["camsim-ab-de"], linked_axes=True),
+                         pn.pane.HoloViews(ab_wins, css_classes=["camsim-ab-wins"], linked_axes=True)]
+        self.sweep_pane = pn.pane.HoloViews(self._sweep_plot(([], "noise_sigma", "CIELAB")),
+                                            css_classes=["camsim-sweep-plot"], linked_axes=False)
+        self._tap = None
+
+    # -- pinning -----------------------------------------------------------------
+    def pin(self, name=""):
+        """Pin the live design under ``name`` (default: its camera); refused past four pinned designs."""
+        pinned = list(self.state.pinned)
+        if len(pinned) >= MAX_PINNED:
+            self.message.object = (f"**At most {MAX_PINNED} pinned designs**: unpin one to pin another "
+                                   "(this bounds the memory and the time of a comparison).")
+            return False
+        names = {p["name"] for p in pinned}
+        base = (name or "").strip() or self.state.camera
+        unique, k = base, 2
+        while unique in names:
+            unique, k = f"{base} {k}", k + 1
+        entry = {"name": unique[:60], "params": _design_only(self.state.design_params())}
+        self.message.object = ""
+        self.name_input.value = ""
+        self.state.pinned = pinned + [entry]
+        return True
+
+    def unpin(self, name):
+        self.state.pinned = [p for p in self.state.pinned if p["name"] != name]
+
+    def rename(self, old, new):
+        new = (new or "").strip()
+        names = [p["name"] for p in self.state.pinned]
+        if old not in names:
+            return False
+        if not new or len(new) > 60 or (new in names and new != old):
+            self.message.object = f"**Refused:** a pinned design needs a unique, non-empty name (got {new!r})."
+            return False
+        self.state.pinned = [dict(p, name=new) if p["name"] == old else p for p in self.state.pinned]
+        self.rename_input.value = ""
+        return True
+
+    def _on_pinned(self, *events):
+        try:
+            checked = check_pinned(list(self.state.pinned))
+        except CamsimError as exc:
+            self.state.message = f"Pinned designs refused: {exc}"
+            self.state.pinned = []
+            return
+        if checked != list(self.state.pinned):
+            self.state.pinned = checked  # normalised (full parameters); comes back here once
+            return
+        names = [p["name"] for p in checked]
+        self.pinned_select.options = names
+        if names and self.pinned_select.value not in names:
+            self.pinned_select.value = names[-1]
+        self.refresh()
+
+    # -- computing pinned designs -------------------------------------------------
+    def _shared(self):
+        """What the designs share: the scene and how the rendered images are viewed (S-CIELAB)."""
+        return {"scene": self.state.scene, "viewing": self.state.viewing}
+
+    def _scene_key(self):
+        name = self.state.scene
+        scene = name if not name.startswith(("upload:", "file:")) else f"{name}@{id(self.state.scene_object())}"
+        return (scene, self.state.viewing)
+
+    def refresh(self):
+        """Compute the pinned designs not in the store (in a background thread on a server); then update."""
+        self._generation += 1
+        generation = self._generation
+        key = self._scene_key()
+        missing = [p for p in self.state.pinned if self.store.get(key, p["params"]) is None]
+        if not missing:
+            self._computing = False
+            self.progress.visible = False
+            self.update()
+            return
+        try:
+            scene = self.state.scene_object()
+        except CamsimError as exc:
+            self.message.object = f"**Refused:** {exc}"
+            return
+        self._computing = True
+        self.progress.max, self.progress.value, self.progress.visible = len(missing), 0, True
+        self.message.object = f"Computing {len(missing)} pinned design(s) on {self.state.scene}..."
+        if self._server_doc() is None:
+            self._compute(missing, scene, key, generation)
+        else:
+            threading.Thread(target=self._compute, args=(missing, scene, key, generation), daemon=True,
+                             name="camsim-compare").start()
+
+    def _compute(self, missing, scene, key, generation):
+        for i, p in enumerate(missing):
+            if generation != self._generation:
+                return
+            params = {**p["params"], **self._shared()}
+            try:
+                result = evaluate_design(params, p["name"], scene=scene)
+                self.store.put(key, params, result)
+                self.errors.pop(p["name"], None)
+            except CamsimError as exc:
+                self.errors[p["name"]] = str(exc)
+            except Exception as exc:  # never a dead page
+                self.errors[p["name"]] = f"{type(exc).__name__}: {exc}"
+            self._schedule(partial(self._progress, generation, i + 1, len(missing)))
+
+    def _progress(self, generation, done, total):
+        if generation != self._generation:
+            return
+        self.progress.value = done
+        if done == total:
+            self._computing = False
+            self.progress.visible = False
+            self.message.object = "; ".join(f"**{n}** refused: {m}" for n, m in self.errors.items())
+        self.update()
+
+    def _server_doc(self):
+        doc = self._doc
+        return doc if doc is not None and doc.session_context is not None else None
+
+    def _schedule(self, fn):
+        doc = self._server_doc()
+        if doc is None:
+            fn()
+        else:
+            doc.add_next_tick_callback(fn)
+
+    # -- the designs shown ---------------------------------------------------------
+    def live_result(self):
+        res = self.state.result
+        if res is None:
+            return None
+        try:
+            return result_from_pipeline(res, {**self.state.design_params()}, LIVE, self.state.processing())
+        except CamsimError:
+            return None
+
+    def designs(self):
+        """The DesignResults compared: the live design (unless equal to a pinned one), then the pinned ones."""
+        key = self._scene_key()
+        pinned = [r for r in (self.store.get(key, p["params"]) for p in self.state.pinned) if r is not None]
+        out = []
+        live_params = _design_only(self.state.design_params())
+        if not any(_design_only(p["params"]) == live_params for p in self.state.pinned):
+            live = self.live_result()
+            if live is not None:
+                out.append(live)
+        names = {p["name"]: p for p in self.state.pinned}
+        for r in pinned:  # results carry the name they were computed under: show the current one
+            for n, p in names.items():
+                if DesignStore.key(key, p["params"]) == DesignStore.key(key, r.params):
+                    r.name = n
+        return out + pinned
+
+    def update(self):
+        """Show the current designs: images, histograms, table, A/B choices, status."""
+        results = self.designs()
+        metric = self.state.metric
+        maps = [r.error_map(metric) for r in results if r.error_map(metric) is not None]
+        top = shared_scale(maps) if maps else 20.0
+        self.table.object = self._table(results)
+        if not (self._built or self.state.pinned):  # only the live design: its table, no plots yet
+            self.views[:] = [self.table]
+            self._status(results, top)
+            return
+        self._ensure_plots()
+        for i in range(SLOTS):
+            if i < len(results):
+                r = results[i]
+                de = r.error_map(metric)
+                de = de if de is not None else r.delta_e
+                self.render_pipes[i].send((np.clip(r.rendered / 255.0, 0, 1), f"{r.name}: rendered"))
+                self.de_pipes[i].send((de, f"{r.name}: {metric if r.error_map(metric) is not None else 'CIELAB'} dE", top))
+            self.render_panes[i].visible = self.de_panes[i].visible = i < len(results)
+        self.hist_pane.object = self._histograms((
+            [(r.name, r.error_map(metric) if r.error_map(metric) is not None else r.delta_e) for r in results], metric))
+        names = [r.name for r in results]
+        a, b = self.a_select.value, self.b_select.value
+        self.a_select.options = names
+        self.b_select.options = names
+        if len(names) >= 2:
+            self.a_select.value = a if a in names else names[0]
+            self.b_select.value = b if b in names and b != self.a_select.value else next(n for n in names if n != self.a_select.value)
+        self.update_ab(results)
+        self._status(results, top)
+
+    def _table(self, results):
+        if not results:
+            return "<p>No design yet.</p>"
+        differ = differing_parameters([r.params for r in results], skip=_SHARED)
+        head = "".join(f"<th>{r.name}</th>" for r in results)
+        rows = [f"<tr><th>{k}</th>" + "".join(f"<td>{r.params.get(k)}</td>" for r in results) + "</tr>" for k in differ]
+        for metric, key in (("dE", "cielab"), ("S-CIELAB dE", "scielab")):
+            for stat, label in (("mean", "mean"), ("median", "median"), ("p95", "95th pct")):
+                cells = "".join(
+                    f'<td class="num" data-value="{r.measures[key][stat]!r}">{r.measures[key][stat]:.2f}</td>'
+                    if key in r.measures else "<td>n/a</td>" for r in results)
+                rows.append(f'<tr class="measure" data-measure="{key}-{stat}"><th>{label} {metric}</th>{cells}</tr>')
+        style = ("<style>table.cmp{border-collapse:collapse} table.cmp th, table.cmp td{border:1px solid #ccc;"
+                 "padding:2px 8px} td.num{text-align:right}</style>")
+        note = "" if differ else "<p>The designs have the same parameters.</p>"
+        return (f'{style}<table class="cmp"><thead><tr><th>parameter / measure</th>{head}</tr></thead>'
+                f"<tbody>{''.join(rows)}</tbody></table>{note}")
+
+    def _histograms(self, data):
+        items, metric = data
+        edges = np.linspace(0, 30, 61)
+        layers = [hv.Curve([], "dE", "fraction of pixels")]
+        for i, (name, values) in enumerate(items):
+            v = np.asarray(values, float)
+            v = v[np.isfinite(v)]
+            if not v.size:
+                continue
+            counts, _ = np.histogram(np.clip(v, 0, 30), edges)
+            colour = DESIGN_COLOURS[i % len(DESIGN_COLOURS)]
+            mean, median = float(np.mean(v)), float(np.median(v))
+            label = f"{name}: mean {mean:.2f}, median {median:.2f}"
+            layers.append(hv.Curve((edges[:-1], counts / v.size), "dE", "fraction of pixels", label=label).opts(
+                interpolation="steps-post", color=colour))
+            layers.append(hv.VLine(mean).opts(color=colour, line_width=1))
+            layers.append(hv.VLine(median).opts(color=colour, line_width=1, line_dash="dashed"))
+        return hv.Overlay(layers).opts(
+            frame_width=520, frame_height=220, title=f"Overlaid {metric} dE histograms (mean solid, median dashed)",
+            legend_position="top_right", show_legend=True)
+
+    # -- A/B -----------------------------------------------------------------------
+    def update_ab(self, results=None):
+        if not self._built:
+            return
+        results = results if results is not None else self.designs()
+        by = {r.name: r for r in results}
+        a, b = by.get(self.a_select.value), by.get(self.b_select.value)
+        self.ab = None
+        if a is None or b is None or a is b:
+            self.ab_text.object = "Pin a design to compare two designs pixel by pixel."
+            return
+        metric = self.state.metric if (a.error_map(self.state.metric) is not None and
+                                       b.error_map(self.state.metric) is not None) else "CIELAB"
+        try:
+            ab = ab_difference(a, b, metric)
+        except CamsimError as exc:
+            self.ab_text.object = f"**A/B not available:** {exc}"
+            return
+        self.ab = (a.name, b.name, ab)
+        tie = a.error_map(metric) == b.error_map(metric)
+        idx = np.where(tie, 2, np.where(ab["a_wins"], 0, 1))
+        top = shared_scale([ab["delta_e"]])
+        self.ab_pipe.send((ab["delta_e"], _WIN_COLOURS[idx], top))
+        m = ab["measures"]
+        self.ab_text.object = (f"dE*ab between **{a.name}** and **{b.name}**: mean {m['mean']:.2f}, median "
+                               f"{m['median']:.2f}. **{a.name}** is closer to the ideal image ({metric}) on "
+                               f"{100 * ab['a_wins_fraction']:.1f} % of the pixels, **{b.name}** on "
+                               f"{100 * ab['b_wins_fraction']:.1f} %.")
+
+    # -- the sweep -----------------------------------------------------------------
+    def request_sweep(self, parameter, values):
+        """Set the state's sweep from the widgets (which starts it); a bad definition shows a message."""
+        try:
+            sweep = check_sweep({"parameter": parameter, "values": values})
+        except CamsimError as exc:
+            self.sweep_message.object = f"**Refused:** {exc}"
+            return False
+        if sweep == self.state.sweep:
+            self.start_sweep()
+        else:
+            self.state.sweep = sweep
+        return True
+
+    def _on_sweep(self, event):
+        if self.state.sweep:
+            try:
+                self.state.sweep = check_sweep(self.state.sweep)
+            except CamsimError as exc:
+                self.state.message = f"Sweep refused: {exc}"
+                self.state.sweep = None
+                return
+            self.start_sweep()
+
+    def sweep_designs(self):
+        """(name, params) of the designs swept: the pinned ones, or the live one when none is pinned."""
+        if self.state.pinned:
+            return [(p["name"], {**p["params"], **self._shared()}) for p in self.state.pinned]
+        return [(LIVE, self.state.design_params())]
+
+    def start_sweep(self):
+        sweep = self.state.sweep
+        if not sweep:
+            return
+        self.sweep_parameter.value, self.sweep_values.value = sweep["parameter"], ", ".join(f"{v:g}" for v in sweep["values"])
+        if self._sweep_cancel is not None:
+            self._sweep_cancel.set()
+        cancel = threading.Event()
+        self._sweep_cancel = cancel
+        designs = self.sweep_designs()
+        try:
+            scene = self.state.scene_object()
+            # refuses here, before anything runs, a parameter that does not apply to a design
+            points = iter_sweep(designs, sweep["parameter"], sweep["values"], scene=scene, cancel=cancel)
+        except CamsimError as exc:
+            self.sweep_message.object = f"**Refused:** {exc}"
+            return
+        self.points = []
+        self.sweep_total = len(designs) * len(sweep["values"])
+        self.sweep_progress.max, self.sweep_progress.value = self.sweep_total, 0
+        self.sweep_message.object = f"Sweeping {sweep['parameter']} over {len(sweep['values'])} values for {len(designs)} design(s)..."
+        if self._server_doc() is None:
+            for p in points:
+                self._add_point(cancel, p)
+        else:
+            threading.Thread(target=self._sweep_work, args=(cancel, points), daemon=True,
+                             name="camsim-sweep-feed").start()
+
+    def _sweep_work(self, cancel, points):
+        try:
+            for p in points:
+                if cancel.is_set():
+                    break
+                self._schedule(partial(self._add_point, cancel, p))
+        except Exception as exc:  # never a dead page
+            self._schedule(partial(setattr, self.sweep_message, "object", f"**Failed:** {type(exc).__name__}: {exc}"))
+
+    def _add_point(self, cancel, point):
+        if cancel is not self._sweep_cancel:
+            return  # a newer sweep replaced this one
+        self._ensure_plots()
+        self.points.append(point)
+        self.sweep_progress.value = len(self.points)
+        self.show_sweep()
+        errors = [p for p in self.points if p.error]
+        if len(self.points) == self.sweep_total:
+            self.sweep_message.object = (f"Done: {len(self.points)} points. Click a point to load its configuration."
+                                         + (f" {len(errors)} refused: {errors[0].error}" if errors else ""))
+        self._status()
+
+    def show_sweep(self):
+        """Draw the sweep's points; a click on the plot loads the nearest point."""
+        plot = self._sweep_plot((list(self.points), self.state.sweep["parameter"], self.state.metric))
+        self._tap = streams.Tap(source=plot, x=None, y=None)
+        self._tap.add_subscriber(self.on_tap)
+        self.sweep_pane.object = plot
+
+    def _sweep_plot(self, data):
+        points, parameter, metric = data
+        label = SWEEP_PARAMETERS.get(parameter, parameter)
+        layers = [hv.Curve([], label, f"mean {metric} dE")]
+        names = {}
+        for p in points:
+            names.setdefault(p.design, p.name)
+        for i, name in sorted(names.items()):
+            pts = sorted((p.value, p.measure(metric)) for p in points if p.design == i and p.measures)
+            colour = DESIGN_COLOURS[i % len(DESIGN_COLOURS)]
+            layers.append(hv.Curve(pts, label, f"mean {metric} dE", label=name).opts(color=colour))
+            layers.append(hv.Scatter(pts, label, f"mean {metric} dE", label=name).opts(color=colour, size=8,
+                                                                                        tools=["tap"]))
+        return hv.Overlay(layers).opts(frame_width=520, frame_height=240, title=f"Mean {metric} dE against {label}",
+                                       legend_position="top_left", show_legend=True)
+
+    def nearest_point(self, x, y):
+        """The sweep point nearest to (x, y) in the plot, distances relative to the axes' spans."""
+        pts = [p for p in self.points if p.measures]
+        if not pts or x is None or y is None:
+            return None
+        metric = self.state.metric
+        xs = np.array([p.value for p in pts], float)
+        ys = np.array([p.measure(metric) for p in pts], float)
+        sx, sy = max(np.ptp(xs), 1e-9), max(np.ptp(ys), 1e-9)
+        return pts[int(np.argmin(((xs - x) / sx) ** 2 + ((ys - y) / sy) ** 2))]
+
+    def on_tap(self, x=None, y=None):
+        point = self.nearest_point(x, y)
+        if point is not None:
+            self.load_point(point)
+
+    def load_point(self, point):
+        """Load a sweep point's configuration into the live design."""
+        values = {k: v for k, v in _design_only(point.params).items() if getattr(self.state, k) != v}
+        self.state.param.update(**values)
+        self.sweep_message.object = (f"Loaded **{point.name}** at {self.state.sweep['parameter']} = {point.value:g} "
+                                     "into the live design.")
+
+    # -- status and report -------------------------------------------------------
+    def _status(self, results=None, top=None):
+        results = results if results is not None else self.designs()
+        sweep = self.state.sweep
+        self.status.object = json.dumps({
+            "designs": [{"name": r.name, "camera": r.params.get("camera"), "measures": r.measures,
+                         "shape": list(r.shape)} for r in results],
+            "pinned": [p["name"] for p in self.state.pinned],
+            "differ": differing_parameters([r.params for r in results], skip=_SHARED) if results else [],
+            "busy": self._computing,
+            "errors": self.errors,
+            "scale_top": top,
+            "hist_curves": len(results),
+            "ab": None if getattr(self, "ab", None) is None else {
+                "a": self.ab[0], "b": self.ab[1], "mean": self.ab[2]["measures"]["mean"],
+                "a_wins": self.ab[2]["a_wins_fraction"], "b_wins": self.ab[2]["b_wins_fraction"]},
+            "sweep": None if not sweep else {
+                "parameter": sweep["parameter"], "values": sweep["values"], "total": self.sweep_total,
+                "points": [{"design": p.name, "value": p.value, "measures": p.measures, "error": p.error}
+                           for p in sorted(self.points, key=lambda p: (p.design, p.value))]},
+            "store": {"entries": len(self.store), "megabytes": round(self.store.nbytes / 1e6, 1)},
+        }, separators=(",", ":"))
+
+    def report_bytes(self):
+        """The HTML report of the comparison on screen (designs, A/B, sweep points)."""
+        results = self.designs()
+        if not results:
+            return None
+        ab = None
+        if self.ab is not None and len(results) >= 2 and self.ab[0] == results[0].name and self.ab[1] == results[1].name:
+            ab = self.ab[2]
+        points = list(self.points)
+        text = report_html(results, sweep=self.state.sweep if points else None, points=points or None, ab=ab,
+                           metric=self.state.metric)
+        return io.BytesIO(text.encode("utf-8"))
+
+    # -- layout --------------------------------------------------------------------
+    def panel(self):
+        pin_row = pn.Row(self.name_input, self.pin_button, self.pinned_select, self.rename_input, self.rename_button,
+                         self.unpin_button)
+        return pn.Column(
+            pn.pane.Markdown(f"Pin up to {MAX_PINNED} designs; they are compared with the live design on the same "
+                             "scene. Images share zoom and pan; every dE map uses one colour scale."),
+            pin_row, pn.Row(self.progress, self.download), self.message, self.views,
+            pn.pane.Markdown("### Sweep"),
+            pn.Row(self.sweep_parameter, self.sweep_values, self.sweep_button, self.sweep_progress),
+            self.sweep_message, self.sweep_area,
+            pn.pane.Markdown("**Comparison status** (for tests and scripts):"), self.status,
+            name="Compare designs",
+        )
+
+
+def compare_tab(state):
+    """The Compare designs tab of one session (a :class:`CompareView` on ``state``)."""
+    view = CompareView(state)
+    tab = view.panel()
+    tab.compare = view
+    return tab

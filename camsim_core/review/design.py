@@ -1,0 +1,475 @@
+"""A camera design: the explorer's parameters, the Camera and Processing they describe, and its measures.
+
+A *design* is the plain dictionary of parameters the explorer shows and
+writes to its JSON file (scene, camera preset, sensors, mosaic, geometry,
+exposure, noise, bits, seed, demosaicing, rendering, monitor). This module
+is the one place that turns such a dictionary into engine objects
+(:func:`camera_from_params`, :func:`processing_from_params`), so that the
+explorer, ``camsim report`` and the sweeps build the very same camera.
+
+:func:`evaluate_design` runs a design through the cached pipeline
+(:class:`camsim_core.cache.Pipeline`: simulation, demosaic, render, ideal
+image, CIELAB and S-CIELAB error maps, chapter sections 3 to 4.3) and keeps
+what a comparison needs: the rendered image, both error maps and their mean,
+median and 95th percentile.
+
+No GUI imports: this module is engine code.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from ..cache import Pipeline, Processing
+from ..errors import CamsimError, FileFormatError, ParameterError
+
+__all__ = [
+    "DESIGN_DEFAULTS", "DESIGN_PARAMETERS", "CAMERA_CHOICES", "MOSAIC_CHOICES", "RENDER_CHOICES",
+    "ILLUMINANT_CHOICES", "METRIC_CHOICES", "GAUSSIAN_DEFAULTS", "DesignResult",
+    "check_params", "camera_from_params", "processing_from_params", "scene_from_params",
+    "evaluate_design", "measures", "check_pinned", "MAX_PINNED", "read_design_file", "result_from_pipeline", "parse_numbers", "parse_tile", "differing_parameters",
+]
+
+
+def _scene_names():
+    from ..scene import SCENE_NAMES
+
+    return tuple(SCENE_NAMES)
+
+
+def _camera_names():
+    from ..camera import CAMERA_NAMES
+
+    return tuple(CAMERA_NAMES) + ("mixture",)
+
+
+def _bayer_names():
+    from ..simulation import BAYER
+
+    return tuple(BAYER)
+
+
+def _demosaic_names():
+    from ..demosaicing import METHODS
+
+    return tuple(METHODS)
+
+
+def _monitor_names():
+    from ..monitor import MONITOR_NAMES
+
+    return tuple(MONITOR_NAMES)
+
+
+#: Camera presets offered (``mixture`` uses ``alpha``).
+CAMERA_CHOICES = _camera_names()
+#: Mosaic layouts: the camera's own, Bayer phases, the 2 x 2 four-sensor grid, none, or a custom tile.
+MOSAIC_CHOICES = ("preset",) + _bayer_names() + ("4-sensor grid", "none", "custom")
+RENDER_CHOICES = ("baseline", "illuminant")
+ILLUMINANT_CHOICES = ("known", "gray-world", "max-rgb")
+METRIC_CHOICES = ("CIELAB", "S-CIELAB")
+#: Centres (nm) and widths (nm) a Gaussian preset starts from.
+GAUSSIAN_DEFAULTS = {"gaussian-3": ("640, 520, 460", "27"), "gaussian-4": ("460, 520, 580, 640", "27")}
+
+#: Every design parameter: (default, kind, choices or (low, high) bounds). The explorer's defaults:
+#: the chapter's real-versus-simulated setting (Cacaphony through a DCS-200 at 3.32 m, 0.1 s, f/11).
+DESIGN_PARAMETERS = {
+    "scene": ("cacaphony290", "scene", None),
+    "camera": ("kodak-dcs200-ir", "choice", CAMERA_CHOICES),
+    "alpha": (0.5, "number", (0.0, 1.0)),
+    "gaussian_centers": ("640, 520, 460", "text", None),
+    "gaussian_widths": ("27", "text", None),
+    "mosaic": ("preset", "choice", MOSAIC_CHOICES),
+    "custom_tile": ("1 0; 2 1", "text", None),
+    "distance": (3.32, "number", (0.5, 20.0)),
+    "exposure": (0.1, "number", (1e-4, 10.0)),
+    "f_stop": (11.0, "number", (1.0, 32.0)),
+    "noise_sigma": (0.0, "number", (0.0, 50.0)),
+    "bits": (8, "integer", (0, 16)),
+    "seed": (0, "integer", (0, 2**32 - 1)),
+    "demosaic_method": ("bilinear", "choice", _demosaic_names()),
+    "render_method": ("baseline", "choice", RENDER_CHOICES),
+    "illuminant": ("known", "choice", ILLUMINANT_CHOICES),
+    "monitor": ("simtoolbox-test", "choice", _monitor_names()),
+    "metric": ("CIELAB", "choice", METRIC_CHOICES),
+    "viewing": ("camera", "text", None),
+    "wavelength": (550.0, "number", (0.0, 10000.0)),
+}
+DESIGN_DEFAULTS = {k: v[0] for k, v in DESIGN_PARAMETERS.items()}
+#: Parameters a comparison shares between its designs (not stored with a pinned design).
+_SHARED = ("scene", "wavelength", "metric", "viewing")
+#: Pinned designs in one comparison.
+MAX_PINNED = 4
+
+
+#: Default bounds on text-described parameters (the explorer's server may set its own).
+MAX_SENSORS, MAX_TILE, MAX_TEXT = 16, 8, 256
+
+
+def _check_text(text, name, max_text):
+    text = str(text)
+    if len(text) > max_text:
+        raise ParameterError(name, f"is {len(text)} characters long; at most {max_text} are accepted")
+    return text
+
+
+def parse_numbers(text, name, *, max_count=MAX_SENSORS, max_text=MAX_TEXT):
+    """Comma- or space-separated finite numbers from a text field (a ParameterError naming ``name`` otherwise).
+
+    At most ``max_count`` numbers in at most ``max_text`` characters.
+    """
+    text = _check_text(text, name, max_text)
+    try:
+        values = [float(v) for v in text.replace(",", " ").split()]
+    except ValueError:
+        raise ParameterError(name, f"expected numbers separated by commas, got {text!r}") from None
+    if not values:
+        raise ParameterError(name, "expected at least one number")
+    if len(values) > max_count:
+        raise ParameterError(name, f"{len(values)} numbers given; at most {max_count} sensors are allowed")
+    if not all(math.isfinite(v) for v in values):
+        raise ParameterError(name, f"expected finite numbers, got {text!r}")
+    return values
+
+
+def parse_tile(text, *, max_side=MAX_TILE, max_text=MAX_TEXT):
+    """A tile from text: rows separated by ';' or new lines, entries by spaces or commas (0-based).
+
+    At most ``max_side`` rows and columns.
+    """
+    text = _check_text(text, "custom_tile", max_text)
+    rows = [r for r in text.replace("\n", ";").split(";") if r.strip()]
+    try:
+        tile = [[int(v) for v in r.replace(",", " ").split()] for r in rows]
+    except ValueError:
+        raise ParameterError("custom_tile", f"entries must be whole sensor indices, got {text!r}") from None
+    if not tile or len({len(r) for r in tile}) != 1 or not tile[0]:
+        raise ParameterError("custom_tile", "rows must be non-empty and of equal length, e.g. '1 0; 2 1'")
+    if len(tile) > max_side or len(tile[0]) > max_side:
+        raise ParameterError("custom_tile", f"is {len(tile)} x {len(tile[0])}; at most {max_side} x {max_side} is allowed")
+    if min(min(r) for r in tile) < 0:
+        raise ParameterError("custom_tile", "sensor indices start at 0; negative entries are not allowed")
+    return np.array(tile)
+
+
+def check_params(values, where="design"):
+    """The full, validated parameter dict of a design: ``values`` over :data:`DESIGN_DEFAULTS`.
+
+    Unknown names, wrong types and values out of range raise a ParameterError
+    naming ``where`` (a file name, a pinned design's name) and the parameter.
+    Scenes are checked by name only (a path is accepted when it exists).
+    """
+    if not isinstance(values, dict):
+        raise ParameterError(where, f"expected an object {{parameter: value}}, got {type(values).__name__}")
+    unknown = sorted(set(values) - set(DESIGN_PARAMETERS))
+    if unknown:
+        raise ParameterError(where, f"unknown parameter(s) {', '.join(map(str, unknown))}; "
+                                    f"valid: {', '.join(DESIGN_PARAMETERS)}")
+    out = dict(DESIGN_DEFAULTS)
+    for name, value in values.items():
+        default, kind, spec = DESIGN_PARAMETERS[name]
+        label = f"{where}: {name}"
+        if kind == "choice":
+            if value not in spec:
+                raise ParameterError(label, f"expected one of {', '.join(spec)}, got {value!r}")
+        elif kind == "scene":
+            if not isinstance(value, str) or (value.lower() not in _scene_names() and not Path(value).is_file()):
+                raise ParameterError(label, f"unknown scene {value!r}: expected a shipped scene "
+                                            f"({', '.join(_scene_names())}) or the path of a .Simg / .npz file")
+        elif kind == "text":
+            if not isinstance(value, str) or len(value) > MAX_TEXT:
+                raise ParameterError(label, f"expected text of at most {MAX_TEXT} characters, got {str(value)[:40]!r}")
+        else:
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ParameterError(label, f"expected a number, got {value!r}")
+            if kind == "integer":
+                if float(value) != int(value):
+                    raise ParameterError(label, f"expected a whole number, got {value!r}")
+                value = int(value)
+            else:
+                value = float(value)
+            low, high = spec
+            if not low <= value <= high:
+                raise ParameterError(label, f"must lie in [{low:g}, {high:g}], got {value!r}")
+        out[name] = value
+    return out
+
+
+@lru_cache(maxsize=32)
+def _preset(name):
+    """A shipped camera (read once per process; cameras are immutable)."""
+    from ..camera import camera_preset
+
+    return camera_preset(name)
+
+
+def _tile(params, cam, max_side=MAX_TILE, max_text=MAX_TEXT):
+    """The mosaic tile the parameters choose (validated against the sensors by the simulation)."""
+    from ..simulation import BAYER, FOUR_SENSOR_GRID
+
+    mosaic = params["mosaic"]
+    if mosaic == "preset":
+        return cam.mosaic
+    if mosaic in BAYER:
+        return BAYER[mosaic]
+    if mosaic == "4-sensor grid":
+        return FOUR_SENSOR_GRID
+    if mosaic == "none":
+        return None
+    return parse_tile(params["custom_tile"], max_side=max_side, max_text=max_text)
+
+
+def camera_from_params(params, *, max_sensors=MAX_SENSORS, max_tile=MAX_TILE, max_text=MAX_TEXT):
+    """The :class:`~camsim_core.Camera` a design describes.
+
+    The preset (or ``mixture-ALPHA``: (1 - alpha) cones + alpha DCS-200,
+    section 5), Gaussian sensors from ``gaussian_centers`` / ``gaussian_widths``
+    (nm) for the Gaussian presets, the chosen mosaic, and distance (m),
+    exposure (s), f-stop, Gaussian noise sigma (digital units, zero mean),
+    bits (0 = unquantized) and seed. Raises CamsimError on a bad combination.
+    ``max_sensors``, ``max_tile`` and ``max_text`` bound the text-described
+    parameters (Gaussian centres and widths, the custom tile).
+    """
+    from ..datasets.sensors import gaussian_sensors
+
+    p = dict(DESIGN_DEFAULTS, **params)
+    if p["camera"] == "mixture":
+        cam = _preset(f"mixture-{round(float(p['alpha']), 3):g}")
+    else:
+        cam = _preset(p["camera"])
+    changes = {}
+    if p["camera"] in GAUSSIAN_DEFAULTS:
+        centers = parse_numbers(p["gaussian_centers"], "gaussian_centers", max_count=max_sensors, max_text=max_text)
+        widths = parse_numbers(p["gaussian_widths"], "gaussian_widths", max_count=max_sensors, max_text=max_text)
+        if len(widths) not in (1, len(centers)):
+            raise ParameterError("gaussian_widths", f"give one width or one per sensor ({len(centers)})")
+        names = ("R", "G", "B") if len(centers) == 3 and p["camera"] == "gaussian-3" else None
+        changes["sensors"] = gaussian_sensors(centers, widths if len(widths) > 1 else widths[0], names=names)
+    changes["mosaic"] = _tile(p, cam, max_tile, max_text)
+    changes.update(
+        distance=float(p["distance"]),
+        exposure=float(p["exposure"]),
+        f_stop=float(p["f_stop"]),
+        noise_sigma=float(p["noise_sigma"]),
+        noise_mean=0.0,
+        bits=int(p["bits"]) or None,
+        seed=int(p["seed"]),
+    )
+    return cam.replace(**changes)
+
+
+def processing_from_params(params, metrics=None):
+    """The :class:`~camsim_core.cache.Processing` of a design.
+
+    ``metrics`` defaults to what the design's ``metric`` shows (CIELAB only,
+    or CIELAB and S-CIELAB); comparisons pass ``("cielab", "scielab")``.
+    """
+    p = dict(DESIGN_DEFAULTS, **params)
+    if metrics is None:
+        metrics = ("cielab",) if p["metric"] == "CIELAB" else ("cielab", "scielab")
+    return Processing(
+        demosaic=p["demosaic_method"],
+        render=p["render_method"],
+        illuminant=None if p["illuminant"] == "known" else p["illuminant"],
+        monitor=p["monitor"],
+        metrics=tuple(metrics),
+        viewing=p["viewing"],
+    )
+
+
+def scene_from_params(params):
+    """The design's Scene: a shipped one (shared, read-only) or a file path."""
+    from ..scene import load_scene
+
+    return load_scene(dict(DESIGN_DEFAULTS, **params)["scene"])
+
+
+def measures(values):
+    """Mean, median and 95th percentile of an error map (CIELAB Delta E units), NaNs ignored."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return {"mean": None, "median": None, "p95": None}
+    return {"mean": float(np.mean(v)), "median": float(np.median(v)), "p95": float(np.percentile(v, 95))}
+
+
+@dataclass
+class DesignResult:
+    """One design evaluated on its scene.
+
+    ``rendered`` and ``ideal`` are the monitor images (H, W, 3, settings
+    0..255); ``xyz`` the rendered image's XYZ on the monitor (cd/m^2) and
+    ``white`` the monitor white; ``delta_e`` and ``scielab`` the (H, W)
+    CIELAB and S-CIELAB dE maps against the ideal image; ``measures`` maps
+    "cielab" and "scielab" to their mean, median and 95th percentile.
+    """
+
+    name: str
+    params: dict
+    camera: object = None
+    processing: object = None
+    scene_name: str = ""
+    rendered: np.ndarray | None = None
+    ideal: np.ndarray | None = None
+    xyz: np.ndarray | None = None
+    white: np.ndarray | None = None
+    delta_e: np.ndarray | None = None
+    scielab: np.ndarray | None = None
+    measures: dict = field(default_factory=dict)
+    seconds: float = 0.0
+
+    @property
+    def shape(self):
+        return None if self.delta_e is None else tuple(self.delta_e.shape)
+
+    def error_map(self, metric="CIELAB"):
+        """The dE map the metric names ("CIELAB" or "S-CIELAB")."""
+        return self.scielab if metric == "S-CIELAB" else self.delta_e
+
+    def measure(self, metric="CIELAB", statistic="mean"):
+        return self.measures["scielab" if metric == "S-CIELAB" else "cielab"][statistic]
+
+    @property
+    def nbytes(self):
+        arrays = (self.rendered, self.ideal, self.xyz, self.delta_e, self.scielab)
+        return int(sum(a.nbytes for a in arrays if a is not None))
+
+
+def evaluate_design(params, name="design", *, scene=None, pipeline=None, metrics=("cielab", "scielab")):
+    """Simulate, process and score one design on its scene.
+
+    Parameters
+    ----------
+    params : dict
+        Design parameters (missing ones take :data:`DESIGN_DEFAULTS`); checked by :func:`check_params`.
+    name : str
+        The design's name (for messages and reports).
+    scene : Scene, optional
+        The scene to use instead of loading ``params["scene"]`` (an upload).
+    pipeline : Pipeline, optional
+        A cached pipeline to re-use (one per thread); a fresh one by default.
+        The result is exactly that of a fresh run either way.
+    metrics : tuple
+        Error maps to compute: "cielab" and/or "scielab".
+
+    Returns
+    -------
+    DesignResult
+
+    Raises
+    ------
+    CamsimError
+        When the engine refuses the design; the message names the design and the failed step.
+    """
+    if scene is None:
+        p = check_params(params, name)
+        scene_obj = scene_from_params(p)
+    else:  # a scene object (an upload): its name in the parameters is only a label
+        p = check_params({k: v for k, v in params.items() if k != "scene"}, name)
+        p["scene"] = params.get("scene", getattr(scene, "name", ""))
+        scene_obj = scene
+    try:
+        camera = camera_from_params(p)
+    except CamsimError as exc:
+        raise CamsimError(f"{name}: {exc}") from None
+    proc = processing_from_params(p, metrics=metrics)
+    res = (pipeline or Pipeline()).run(scene_obj, camera, proc)
+    return result_from_pipeline(res, p, name, proc)
+
+
+def result_from_pipeline(res, params, name, processing):
+    """A :class:`DesignResult` from a :class:`~camsim_core.cache.Result` (a CamsimError if a step failed)."""
+    if res.errors or res.delta_e is None:
+        detail = "; ".join(f"{k}: {v}" for k, v in res.errors.items()) or "no error map was computed"
+        raise CamsimError(f"{name}: {detail}")
+    scene_name = getattr(res.scene, "name", "") or str(params.get("scene", ""))
+    out = DesignResult(
+        name=name, params=dict(params), camera=res.camera, processing=processing, scene_name=scene_name,
+        rendered=np.asarray(res.rendered.data), ideal=np.asarray(res.ideal.data),
+        xyz=np.asarray(getattr(res.xyz, "data", res.xyz), float), white=np.asarray(res.white, float),
+        delta_e=np.asarray(res.delta_e, float),
+        scielab=None if res.scielab is None else np.asarray(res.scielab, float),
+        seconds=res.seconds,
+    )
+    out.measures = {"cielab": measures(out.delta_e)}
+    if out.scielab is not None:
+        out.measures["scielab"] = measures(out.scielab)
+    return out
+
+
+def differing_parameters(designs, skip=("wavelength", "metric")):
+    """Names of the parameters whose values differ between the given parameter dicts (in parameter order)."""
+    full = [dict(DESIGN_DEFAULTS, **d) for d in designs]
+    return [k for k in DESIGN_PARAMETERS if k not in skip and len({json.dumps(f[k]) for f in full}) > 1]
+
+
+def read_design_file(path):
+    """The designs and the sweep an explorer parameter file holds.
+
+    Returns ``(designs, sweep)``: ``designs`` a list of ``(name, params)``,
+    first the file's own design (named after the file), then its pinned
+    designs (their own names) — the file's own design is left out when it
+    equals a pinned one; ``sweep`` the file's sweep (``{"parameter", "values"}``)
+    or None. Raises FileFormatError (missing file, not JSON) or
+    ParameterError (unknown entry, bad value, unknown scene) naming the file.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileFormatError(path, "no such file (expected an explorer parameters .json file)")
+    try:
+        values = json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise FileFormatError(path, f"not a JSON parameters file: {str(exc).splitlines()[0]}") from None
+    if not isinstance(values, dict):
+        raise FileFormatError(path, "expected a JSON object {parameter: value}")
+    values = dict(values)
+    pinned = values.pop("pinned", None) or []
+    sweep = values.pop("sweep", None) or None
+    own = check_params(values, str(path))
+    shared = {k: own[k] for k in _SHARED}  # the scene and viewing of the file's comparison
+    designs = [(e["name"], {**e["params"], **shared}) for e in check_pinned(pinned, f"{path}: pinned")]
+    if not any(_same_design(own, d) for _, d in designs):
+        designs.insert(0, (path.stem, own))
+    if sweep is not None:
+        from .sweep import check_sweep
+
+        sweep = check_sweep(sweep, where=f"{path}: sweep")
+    return designs, sweep
+
+
+def check_pinned(pinned, where="pinned"):
+    """Validated pinned designs: a list of at most :data:`MAX_PINNED` ``{"name", "params"}`` objects.
+
+    ``params`` are a design's camera and processing settings that differ from
+    :data:`DESIGN_DEFAULTS` (the scene and the viewing are shared by the
+    comparison and not stored); names must be unique text.
+    """
+    if not isinstance(pinned, list):
+        raise ParameterError(where, "expected a list of {name, params} objects")
+    if len(pinned) > MAX_PINNED:
+        raise ParameterError(where, f"at most {MAX_PINNED} pinned designs, got {len(pinned)}")
+    out, names = [], set()
+    for i, entry in enumerate(pinned):
+        if not isinstance(entry, dict) or set(entry) - {"name", "params"} or not isinstance(entry.get("params"), dict):
+            raise ParameterError(f"{where}[{i}]", "expected an object {name, params}")
+        name = entry.get("name")
+        if not isinstance(name, str) or not name.strip() or len(name) > 60 or name in names:
+            raise ParameterError(f"{where}[{i}]: name", f"expected a unique, non-empty name of at most 60 characters, got {name!r}")
+        names.add(name)
+        params = {k: v for k, v in entry["params"].items() if k not in _SHARED}
+        full = check_params(params, f"{where}: {name}")
+        # only what differs from the defaults: short links, and the same entry however it was written
+        out.append({"name": name, "params": {k: v for k, v in full.items()
+                                             if k not in _SHARED and v != DESIGN_DEFAULTS[k]}})
+    return out
+
+
+def _same_design(a, b, skip=_SHARED):
+    a, b = dict(DESIGN_DEFAULTS, **a), dict(DESIGN_DEFAULTS, **b)
+    return all(a[k] == b[k] for k in DESIGN_PARAMETERS if k not in skip)

@@ -1,0 +1,136 @@
+"""The Compare designs tab without a browser (app.compare on an ExplorerState)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from app.compare import CompareView
+from app.state import ExplorerState
+from camsim_core.review import evaluate_design
+from camsim_core.review.design import MAX_PINNED
+
+
+@pytest.fixture(scope="module")
+def engine():
+    """The engine's results for each design alone."""
+    return {name: evaluate_design({"camera": cam}, name) for name, cam in
+            (("DCS-200", "kodak-dcs200-ir"), ("cones", "human-cones"))}
+
+
+@pytest.fixture
+def compared():
+    state = ExplorerState()
+    view = CompareView(state)
+    view.pin("DCS-200")
+    state.camera = "human-cones"
+    view.pin("cones")
+    return state, view
+
+
+def test_pinned_designs_show_the_engines_numbers(compared, engine):
+    state, view = compared
+    status = json.loads(view.status.object)
+    # the live design equals the pinned "cones": two designs, not three
+    assert [d["name"] for d in status["designs"]] == ["DCS-200", "cones"]
+    assert status["differ"] == ["camera"] and status["hist_curves"] == 2
+    for d in status["designs"]:
+        assert d["measures"] == engine[d["name"]].measures
+    assert status["designs"][0]["measures"]["cielab"]["mean"] != status["designs"][1]["measures"]["cielab"]["mean"]
+    for name, r in engine.items():
+        assert f'data-value="{r.measures["cielab"]["mean"]!r}"' in view.table.object
+    assert "kodak-dcs200-ir" in view.table.object and "human-cones" in view.table.object
+    assert [p.visible for p in view.render_panes] == [True, True, False, False, False]
+
+
+def test_each_pinned_design_is_computed_once(compared, monkeypatch):
+    state, view = compared
+    import app.compare as module
+
+    calls = []
+    real = module.evaluate_design
+    monkeypatch.setattr(module, "evaluate_design", lambda *a, **k: calls.append(a[1]) or real(*a, **k))
+    state.noise_sigma = 3.0  # the live design changes; the pinned ones are not recomputed
+    view.rename("cones", "human cones")
+    assert calls == []
+    assert [d["name"] for d in json.loads(view.status.object)["designs"]] == ["live", "DCS-200", "human cones"]
+    state.scene = "bfgb128"  # a shared setting: every pinned design is recomputed, once
+    assert sorted(calls) == ["DCS-200", "human cones"]
+    assert all(d["shape"] == json.loads(view.status.object)["designs"][0]["shape"]
+               for d in json.loads(view.status.object)["designs"])
+
+
+def test_pin_cap_shows_a_message(compared):
+    state, view = compared
+    for i in range(MAX_PINNED - 2):
+        state.noise_sigma = float(i + 1)
+        assert view.pin()
+    assert len(state.pinned) == MAX_PINNED
+    assert not view.pin("one too many")
+    assert len(state.pinned) == MAX_PINNED and "At most 4 pinned designs" in view.message.object
+    view.unpin("DCS-200")
+    assert [p["name"] for p in state.pinned][0] == "cones"
+
+
+def test_ab_difference_against_the_ideal_design(compared, engine):
+    state, view = compared
+    status = json.loads(view.status.object)
+    assert status["ab"]["a"] == "DCS-200" and status["ab"]["b"] == "cones"
+    # cones render the ideal image: the A/B map is DCS-200's own error map
+    assert status["ab"]["mean"] == pytest.approx(engine["DCS-200"].measures["cielab"]["mean"], rel=1e-9)
+    assert status["ab"]["a_wins"] == 0.0
+
+
+def test_sweep_points_equal_the_engine_and_a_click_loads_one(compared):
+    state, view = compared
+    assert view.request_sweep("noise_sigma", "0, 2, 4, 6, 8")
+    status = json.loads(view.status.object)
+    points = status["sweep"]["points"]
+    assert len(points) == 10 and sorted({p["design"] for p in points}) == ["DCS-200", "cones"]
+    cams = {"DCS-200": "kodak-dcs200-ir", "cones": "human-cones"}
+    for p in points[::3]:  # a few checked against the engine alone (each takes a second)
+        alone = evaluate_design({"camera": cams[p["design"]], "noise_sigma": p["value"]}, p["design"])
+        assert p["measures"] == alone.measures
+    target = next(p for p in view.points if p.name == "DCS-200" and p.value == 6.0)
+    view.on_tap(6.1, target.measure() + 0.1)
+    assert state.camera == "kodak-dcs200-ir" and state.noise_sigma == 6.0
+    assert state.result.delta_e.mean() == pytest.approx(target.measure(), rel=1e-12)
+
+
+def test_bad_sweeps_and_names_are_refused_with_a_message(compared):
+    state, view = compared
+    assert not view.request_sweep("noise_sigma", "0, lots")
+    assert "Refused" in view.sweep_message.object
+    view.request_sweep("alpha", "0, 1")
+    assert "mixture camera only" in view.sweep_message.object
+    assert not view.rename("cones", "DCS-200")
+    assert "unique" in view.message.object
+
+
+def test_state_json_reproduces_the_comparison(compared):
+    state, view = compared
+    view.request_sweep("noise_sigma", "0, 4")
+    text = state.to_json()
+    other = ExplorerState()
+    assert other.from_json(text), other.message
+    again = CompareView(other)
+    a, b = json.loads(view.status.object), json.loads(again.status.object)
+    assert a["designs"] == b["designs"] and a["sweep"]["points"] == b["sweep"]["points"]
+
+
+def test_bad_pinned_entries_in_a_file_are_refused(compared):
+    state, _ = compared
+    other = ExplorerState()
+    bad = json.loads(state.to_json())
+    bad["pinned"] = [{"name": "x", "params": {"camera": "pinhole"}}]
+    assert not other.from_json(json.dumps(bad))
+    assert "pinhole" in other.message and other.pinned == []
+
+
+def test_report_download_is_self_contained(compared):
+    state, view = compared
+    html = view.report_bytes().getvalue().decode()
+    srcs = [s.split('"', 1)[0] for s in html.split('src="')[1:]]
+    assert srcs and all(s.startswith("data:image/png;base64,") for s in srcs)
+    assert "DCS-200" in html and "A/B difference" in html
+    assert np.isfinite(json.loads(view.status.object)["store"]["megabytes"])

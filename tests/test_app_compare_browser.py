@@ -1,0 +1,180 @@
+"""The Compare designs tab in a real browser: pin DCS-200 and human cones, share the comparison by link,
+sweep noise sigma. Numbers are checked against the engine's results for each configuration alone."""
+
+import json
+import time
+
+import pytest
+
+from app_helpers import ARTIFACTS, CHROMIUM_ARGS, TIMEOUT, Page, chromium_path, explorer_server
+from camsim_core.review import evaluate_design
+
+pytestmark = pytest.mark.browser
+
+CAMERAS = {"DCS-200": "kodak-dcs200-ir", "human cones": "human-cones"}
+SIGMAS = [0.0, 2.0, 4.0, 6.0, 8.0]
+
+
+@pytest.fixture(scope="module")
+def server():
+    ARTIFACTS.mkdir(exist_ok=True)
+    with explorer_server() as url:
+        yield url
+
+
+@pytest.fixture(scope="module")
+def browser():
+    try:
+        path = chromium_path()
+    except RuntimeError as exc:
+        pytest.fail(str(exc))
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
+        yield b
+        b.close()
+
+
+def compare_status(page):
+    text = page.page.locator(".camsim-compare-status pre").first.text_content() or ""
+    try:
+        return json.loads(text)
+    except ValueError:
+        return {}
+
+
+def wait_compare(page, predicate, timeout=3 * TIMEOUT):
+    deadline = time.monotonic() + timeout
+    while True:
+        s = compare_status(page)
+        if s and predicate(s):
+            return s
+        if time.monotonic() > deadline:
+            raise AssertionError(f"the comparison never satisfied the condition; last: {s}")
+        time.sleep(0.3)
+
+
+def open_tab(page):
+    page.page.locator(".bk-tab").filter(has_text="Compare designs").first.click()
+
+
+def pin(page, name):
+    box = page.page.locator(".w-pin-name input").first
+    box.fill(name)
+    box.press("Enter")
+    page.page.locator(".w-pin button").first.click()
+
+
+@pytest.fixture(scope="module")
+def compared(browser, server):
+    """A page with DCS-200 and human cones pinned (the live design is human cones)."""
+    page = Page(browser, server)
+    open_tab(page)
+    pin(page, "DCS-200")
+    wait_compare(page, lambda s: s["pinned"] == ["DCS-200"])
+    page.select("w-camera", "human-cones")
+    page.wait_for(lambda s: s["params"]["camera"] == "human-cones")
+    pin(page, "human cones")
+    wait_compare(page, lambda s: [d["name"] for d in s["designs"]] == ["DCS-200", "human cones"] and not s["busy"])
+    yield page
+    page.close()
+
+
+@pytest.fixture(scope="module")
+def engine():
+    return {name: evaluate_design({"camera": cam}, name) for name, cam in CAMERAS.items()}
+
+
+_FIGURES = """() => {
+  const out = {};
+  for (const m of Bokeh.documents[0]._all_models.values()) {
+    if (m.constructor && m.constructor.__name__ === 'Figure' && m.title && m.title.text) {
+      const legends = m.center.filter(c => c.constructor.__name__ === 'Legend');
+      const labels = legends.flatMap(l => l.items.map(i => i.label && (i.label.value || i.label.field)));
+      const scatters = m.renderers.filter(r => r.glyph && r.glyph.constructor.__name__ === 'Scatter').map(
+        r => ({x: Array.from(r.data_source.data[r.glyph.x.field]), y: Array.from(r.data_source.data[r.glyph.y.field])}));
+      const mappers = m.renderers.filter(r => r.glyph && r.glyph.color_mapper).map(r => [r.glyph.color_mapper.low, r.glyph.color_mapper.high]);
+      out[m.title.text] = {x: m.x_range.id, y: m.y_range.id, legend: labels, scatters: scatters, mappers: mappers};
+    }
+  }
+  return out;
+}"""
+
+
+def test_two_pinned_designs_side_by_side(compared, engine):
+    page = compared
+    s = compare_status(page)
+    time.sleep(1.0)
+    figures = page.page.evaluate(_FIGURES)
+    rendered = [k for k in figures if k.endswith(": rendered")]
+    maps = [k for k in figures if k.endswith(" dE") and ":" in k]
+    assert sorted(rendered) == ["DCS-200: rendered", "human cones: rendered"]
+    assert page.page.locator(".camsim-compare-rendered").filter(has=page.page.locator("canvas")).count() >= 2
+    # shared zoom and pan: one x range and one y range for every image view
+    ranges = {(figures[k]["x"], figures[k]["y"]) for k in rendered + maps}
+    assert len(ranges) == 1
+    # one colour scale for every dE map
+    assert len({tuple(m) for k in maps for m in figures[k]["mappers"]}) == 1
+    # two histogram curves, each labelled with its mean and median
+    hist = next(v for k, v in figures.items() if k.startswith("Overlaid"))
+    labels = [lab for lab in hist["legend"] if lab]
+    assert len(labels) == 2
+    for (name, r), label in zip(engine.items(), labels):
+        m = r.measures["cielab"]
+        assert label == f"{name}: mean {m['mean']:.2f}, median {m['median']:.2f}"
+    # the table: the camera difference and two different mean dEs, equal to the engine's for each design alone
+    assert s["differ"] == ["camera"]
+    for d in s["designs"]:
+        assert d["camera"] == CAMERAS[d["name"]] and d["measures"] == engine[d["name"]].measures
+    means = [engine[n].measures["cielab"]["mean"] for n in CAMERAS]
+    assert means[0] != means[1]
+    table = page.page.locator(".camsim-compare-table table").first.inner_text()
+    assert "kodak-dcs200-ir" in table and "human-cones" in table
+    assert all(f"{m:.2f}" in table for m in means)
+    assert page.errors() == []
+    page.shot("compare-two-designs")
+    page.page.locator(".camsim-tabs").first.screenshot(path=str(ARTIFACTS / "compare-tab.png"))  # docs/compare.png
+
+
+def test_a_link_reproduces_the_comparison(browser, compared):
+    page = compared
+    page.page.wait_for_function("() => window.location.search.includes('pinned=')", timeout=30000)
+    url = page.page.url
+    first = compare_status(page)
+    second = Page(browser, url)
+    try:
+        open_tab(second)
+        s = wait_compare(second, lambda s: [d["name"] for d in s["designs"]] == ["DCS-200", "human cones"]
+                         and not s["busy"])
+        second.shot("compare-shared-link")
+        assert s["designs"] == first["designs"] and s["differ"] == ["camera"]
+        assert second.errors() == []
+    finally:
+        second.close()
+
+
+def test_sweep_of_noise_gives_one_curve_per_design_with_the_engines_points(compared):
+    page = compared
+    page.select("w-sweep-parameter", "noise_sigma")
+    box = page.page.locator(".w-sweep-values input").first
+    box.fill(", ".join(f"{v:g}" for v in SIGMAS))
+    box.press("Enter")
+    page.page.locator(".w-sweep-run button").first.click()
+    s = wait_compare(page, lambda s: s["sweep"] and len(s["sweep"]["points"]) == 2 * len(SIGMAS), timeout=240)
+    time.sleep(1.5)
+    page.shot("compare-sweep")
+    figures = page.page.evaluate(_FIGURES)
+    plot = next(v for k, v in figures.items() if k.startswith("Mean CIELAB dE against"))
+    assert len(plot["scatters"]) == 2  # two curves (points drawn as scatter over the lines)
+    shown = sorted((tuple(c["x"]), tuple(c["y"])) for c in plot["scatters"])
+    expected = []
+    for name, cam in CAMERAS.items():
+        ys = [evaluate_design({"camera": cam, "noise_sigma": v}, name, metrics=("cielab",)).measures["cielab"]["mean"]
+              for v in SIGMAS]
+        expected.append((tuple(SIGMAS), tuple(ys)))
+    expected.sort()
+    for (xs, ys), (ex, ey) in zip(shown, expected):
+        assert list(xs) == list(ex) and ys == pytest.approx(ey, rel=1e-12, abs=1e-12)
+    assert "Done: 10 points" in page.text(".camsim-sweep-message")
+    assert page.errors() == []

@@ -1,0 +1,204 @@
+"""Design review engine (camsim_core.review) and ``camsim report`` without a browser."""
+
+import json
+
+import numpy as np
+import pytest
+
+import camsim_core as cc
+from camsim_core.cli import main
+from camsim_core.errors import CamsimError, ParameterError
+from camsim_core.review import (DESIGN_DEFAULTS, camera_from_params, design_at, differing_parameters, evaluate_design,
+                                iter_sweep, read_design_file, run_sweep)
+from camsim_core.review.difference import ab_difference
+from camsim_core.review.report import colour_map, report_html, shared_scale
+
+DCS = {"camera": "kodak-dcs200-ir"}
+CONES = {"camera": "human-cones"}
+
+
+@pytest.fixture(scope="module")
+def dcs():
+    return evaluate_design(DCS, "dcs")
+
+
+@pytest.fixture(scope="module")
+def cones():
+    return evaluate_design(CONES, "cones")
+
+
+def test_design_defaults_are_the_explorers_file_format():
+    from app.state import URL_PARAMETERS, ExplorerState
+
+    saved = json.loads(ExplorerState().to_json())
+    assert {k: saved[k] for k in URL_PARAMETERS} == DESIGN_DEFAULTS
+
+
+def test_camera_from_params_builds_the_engine_objects():
+    from camsim_core.datasets.sensors import mixture
+
+    cam = camera_from_params({"camera": "mixture", "alpha": 0.3, "mosaic": "none", "bits": 0, "noise_sigma": 2.5})
+    assert np.allclose(cam.sensors.values, mixture(0.3).values)
+    assert cam.mosaic is None and cam.bits is None and cam.noise_sigma == 2.5
+    g = camera_from_params({"camera": "gaussian-4", "gaussian_centers": "450, 500, 600, 650", "mosaic": "4-sensor grid"})
+    assert np.allclose(g.sensors.wavelengths[np.argmax(g.sensors.values, axis=1)], [450, 500, 600, 650])
+    assert np.array_equal(g.mosaic, [[0, 1], [2, 3]])
+    d = camera_from_params({"distance": 5.0, "exposure": 0.2, "f_stop": 8})
+    assert (d.distance, d.exposure, d.f_stop, d.bits) == (5.0, 0.2, 8.0, 8)
+
+
+def test_cones_design_is_the_ideal_image_and_dcs200_is_not(dcs, cones):
+    # the ideal image is the cones camera (no mosaic, no noise, 8 bits, baseline): zero error, exactly
+    assert cones.measures["cielab"] == {"mean": 0.0, "median": 0.0, "p95": 0.0}
+    assert np.array_equal(cones.rendered, cones.ideal)
+    assert dcs.measures["cielab"]["mean"] > 5 and dcs.measures["scielab"]["mean"] > 5
+
+
+def test_measures_match_a_direct_run_of_the_engine(dcs):
+    # an independent path: the public stage functions, without the cache
+    scene = cc.load_scene("cacaphony290")
+    cam = cc.load_camera("kodak-dcs200-ir").replace(distance=3.32, exposure=0.1, f_stop=11.0, noise_sigma=0.0, noise_mean=0.0)
+    mon = cc.load_monitor("simtoolbox-test")
+    rendered = cc.render(cc.demosaic(cc.simulate(scene, cam), "bilinear"), mon, method="baseline")
+    ideal = cc.ideal_image(scene, cam, mon)
+    from camsim_core.rendering import white_xyz
+
+    de = cc.metrics.delta_e(np.asarray(cc.to_xyz(rendered, mon).data), np.asarray(cc.to_xyz(ideal, mon).data),
+                            np.asarray(white_xyz(mon), float))
+    assert np.array_equal(dcs.rendered, rendered.data)
+    assert dcs.measures["cielab"]["mean"] == pytest.approx(float(np.mean(de)), rel=1e-12)
+    assert dcs.measures["cielab"]["median"] == pytest.approx(float(np.median(de)), rel=1e-12)
+    assert dcs.measures["cielab"]["p95"] == pytest.approx(float(np.percentile(de, 95)), rel=1e-12)
+
+
+def test_ab_difference_against_the_ideal_design_is_the_error_map(dcs, cones):
+    # the cones design renders the ideal image, so dE(dcs, cones) is dcs's own error map
+    ab = ab_difference(dcs, cones)
+    assert np.allclose(ab["delta_e"], dcs.delta_e, atol=1e-9)
+    assert ab["b_wins_fraction"] == pytest.approx(float(np.mean(dcs.delta_e > 0)))
+    assert ab["a_wins_fraction"] == 0.0
+    same = ab_difference(dcs, dcs)
+    assert np.all(same["delta_e"] == 0) and same["a_wins_fraction"] == same["b_wins_fraction"] == 0.0
+    far = evaluate_design({"distance": 6.0}, "far", metrics=("cielab",))
+    with pytest.raises(ParameterError, match="same geometry"):
+        ab_difference(dcs, far)
+
+
+def test_sweep_points_equal_each_configuration_run_alone():
+    designs = [("dcs", DCS), ("cones", CONES)]
+    values = [0.0, 3.0, 6.0]
+    arrived = list(iter_sweep(designs, "noise_sigma", values, metrics=("cielab",)))
+    assert sorted((p.name, p.value) for p in arrived) == sorted((n, v) for n, _ in designs for v in values)
+    for p in arrived:
+        alone = evaluate_design({**dict(designs)[p.name], "noise_sigma": p.value}, p.name, metrics=("cielab",))
+        assert p.error is None and p.measures == alone.measures
+    by = {(p.name, p.value): p.measure() for p in arrived}
+    assert by[("cones", 0.0)] == 0.0 < by[("cones", 3.0)] < by[("cones", 6.0)]  # error grows with noise
+    assert by[("dcs", 0.0)] < by[("dcs", 3.0)] < by[("dcs", 6.0)]
+
+
+def test_sweep_of_a_gaussian_centre_changes_only_that_sensor():
+    p = design_at({"camera": "gaussian-3"}, "gaussian_center_2", 500)
+    assert p["gaussian_centers"] == "640, 500, 460"
+    pts = run_sweep([("g3", {"camera": "gaussian-3"})], "gaussian_center_2", [500, 560], metrics=("cielab",))
+    assert [p.value for p in pts] == [500, 560] and pts[0].measure() != pts[1].measure()
+
+
+@pytest.mark.parametrize("designs, parameter, values, match", [
+    ([("dcs", DCS)], "alpha", [0, 1], "mixture camera only"),
+    ([("dcs", DCS)], "gaussian_center_1", [500], "Gaussian cameras only"),
+    ([("dcs", DCS)], "noise_sigma", list(range(26)), "at most 25 values"),
+    ([("dcs", DCS)], "noise_sigma", [-1], "noise_sigma"),
+    ([("dcs", DCS)], "warp", [1], "expected one of"),
+    ([(str(i), DCS) for i in range(6)], "noise_sigma", [1], "at most 5 designs"),
+])
+def test_bad_sweeps_are_refused_before_running(designs, parameter, values, match):
+    with pytest.raises(ParameterError, match=match):
+        run_sweep(designs, parameter, values)
+
+
+def test_design_file_with_pinned_designs_and_a_sweep(tmp_path):
+    from app.state import ExplorerState
+
+    state = ExplorerState(camera="human-cones", noise_sigma=2.0)
+    saved = json.loads(state.to_json())
+    saved["pinned"] = [{"name": "DCS-200", "params": {"camera": "kodak-dcs200-ir"}},
+                       {"name": "cones", "params": {"camera": "human-cones", "noise_sigma": 2.0}}]
+    saved["sweep"] = {"parameter": "noise_sigma", "values": [0, 1]}
+    path = tmp_path / "review.json"
+    path.write_text(json.dumps(saved))
+    designs, sweep = read_design_file(path)
+    # the file's own design equals the pinned "cones": listed once
+    assert [n for n, _ in designs] == ["DCS-200", "cones"]
+    assert designs[1][1]["noise_sigma"] == 2.0 and designs[0][1]["scene"] == "cacaphony290"
+    assert sweep == {"parameter": "noise_sigma", "values": [0.0, 1.0]}
+    assert differing_parameters([p for _, p in designs]) == ["camera", "noise_sigma"]
+
+
+def test_report_html_holds_the_numbers_and_only_embedded_images(dcs, cones):
+    text = report_html([dcs, cones])
+    for r in (dcs, cones):
+        assert f'data-value="{r.measures["cielab"]["mean"]!r}"' in text
+        assert f'data-value="{r.measures["cielab"]["median"]!r}"' in text
+    srcs = [s.split('"', 1)[0] for s in text.split('src="')[1:]]
+    assert srcs and all(s.startswith("data:image/png;base64,") for s in srcs)
+    assert "http://" not in text and "https://" not in text
+    assert f"camsim {cc.__version__}" in text and "cacaphony290" in text
+
+
+def test_shared_colour_scale_covers_every_map():
+    a, b = np.full((4, 4), 3.0), np.full((4, 4), 17.0)
+    assert shared_scale([a, b]) == 20.0
+    top = colour_map(np.array([[0.0, 20.0, 40.0]]), 20.0)
+    assert np.array_equal(top[0, 1], top[0, 2])  # clipped at the top of the scale
+
+
+# -- the command line: bad input -------------------------------------------------------------
+def _run(capsys, *argv):
+    code = main(["report", *map(str, argv)])
+    return code, capsys.readouterr()
+
+
+@pytest.mark.parametrize("content, expected", [
+    (None, "no such file"),
+    ("{not json", "not a JSON parameters file"),
+    ('["a list"]', "expected a JSON object"),
+    ('{"scene": "moon"}', "unknown scene 'moon'"),
+    ('{"camera": "pinhole"}', "camera: expected one of"),
+    ('{"noise_sigma": -3}', "noise_sigma: must lie in"),
+    ('{"warp_factor": 9}', "unknown parameter(s) warp_factor"),
+    ('{"pinned": [{"name": "x", "params": {"bits": "many"}}]}', "x: bits: expected a number"),
+    ('{"sweep": {"parameter": "noise_sigma", "values": []}}', "sweep: values"),
+])
+def test_bad_design_file_one_line_exit_2_no_output(tmp_path, capsys, content, expected):
+    path = tmp_path / "design.json"
+    if content is not None:
+        path.write_text(content)
+    out = tmp_path / "report.html"
+    code, io = _run(capsys, path, "--out", out)
+    assert code == 2
+    lines = io.err.strip().splitlines()
+    assert len(lines) == 1 and "design.json" in lines[0] and expected in lines[0], io.err
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ([] if content is None else ["design.json"])
+
+
+def test_bad_command_line_options(tmp_path, capsys):
+    good = tmp_path / "a.json"
+    good.write_text("{}")
+    code, io = _run(capsys, good, "--out", tmp_path / "report.pdf")
+    assert code == 2 and "expected an .html file name" in io.err
+    code, io = _run(capsys, good, "--out", tmp_path / "missing" / "r.html")
+    assert code == 2 and "does not exist" in io.err
+    code, io = _run(capsys, good, "--out", tmp_path / "r.html", "--sweep", "noise_sigma")
+    assert code == 2 and "PARAM=V1,V2" in io.err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.json"]
+
+
+def test_engine_refusal_names_the_design(tmp_path, capsys):
+    path = tmp_path / "grid.json"
+    path.write_text(json.dumps({"mosaic": "4-sensor grid"}))  # the DCS-200 has 3 sensors
+    code, io = _run(capsys, path, "--out", tmp_path / "r.html")
+    assert code == 2 and io.err.count("\n") == 1 and "grid" in io.err and "sensor" in io.err
+    assert not (tmp_path / "r.html").exists()
+    with pytest.raises(CamsimError):
+        evaluate_design({"mosaic": "4-sensor grid"}, "grid")
