@@ -207,7 +207,9 @@ class ResultsView:
             self.hist_pipe.send((np.asarray(de, float).ravel(), f"{label} dE"))
             mean, med = float(np.nanmean(de)), float(np.nanmedian(de))
             steps = [n.removeprefix("stage:") for n, _ in res.ran]
-            self.stats.object = (f"**{label}** mean dE **{mean:.2f}** · median **{med:.2f}** · engine "
+            view = (f" · viewing {self.state.viewing}, {res.samples_per_degree:.4g} samples/deg"
+                    if label == "S-CIELAB" and res.samples_per_degree else "")
+            self.stats.object = (f"**{label}** mean dE **{mean:.2f}** · median **{med:.2f}**{view} · engine "
                                  f"{1000 * res.seconds:.0f} ms ({', '.join(steps) or 'nothing re-run'})")
         else:
             mean = med = None
@@ -218,6 +220,7 @@ class ResultsView:
             "mean_de": None if mean is None else round(mean, 4),
             "median_de": None if med is None else round(med, 4),
             "metric": label,
+            "samples_per_degree": res.samples_per_degree if label == "S-CIELAB" else None,
             "raw_hash": digest(raw.data),
             "rendered_hash": digest(res.rendered),
             "tile": None if raw.tile is None else np.asarray(raw.tile).tolist(),

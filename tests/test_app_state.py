@@ -187,3 +187,16 @@ def test_sessions_share_nothing_but_read_only_data(tmp_path):
     a.noise_sigma = 5.0
     assert b.result is b_before and b.noise_sigma == 0.0
     assert a.pipeline is not b.pipeline
+
+
+def test_viewing_is_a_state_parameter_that_sets_scielab_samples_per_degree(state):
+    state.metric = "S-CIELAB"
+    assert state.result.samples_per_degree == pytest.approx(102.6)  # the chapter's default
+    chapter_mean = float(state.result.scielab.mean())
+    state.viewing = "camera/10"
+    assert state.result.samples_per_degree == pytest.approx(10.26)
+    assert "render" not in state.result.ran_steps  # only the metric re-ran
+    assert float(state.result.scielab.mean()) != chapter_mean
+    assert state.to_dict()["viewing"] == "camera/10"  # carried by the URL and the parameter file
+    state.viewing = "sideways"
+    assert "viewing" in state.message
