@@ -512,7 +512,8 @@ def compare_real(
         eq_1_2_size=eq12,
         white=white,
         settings=dict(
-            raw=str(path), scene=scn.name, camera=cam.name, monitor=mon.name, render=render, distance=distance,
+            raw=str(path) if raw_path is not None else "assets/simtoolbox/DCS200TestIR/DCS200TestIR.tif (shipped)",
+            scene=scn.name, camera=cam.name, monitor=mon.name, render=render, distance=distance,
             exposure=exposure, f_stop=f_stop, seed=seed, blocks=list(blocks),
             camera_angular_resolution=cam.angular_resolution[0], scene_angular_resolution=scn.angular_resolution[0],
             scene_distance=scn.distance, black_percentile=black_percentile,
