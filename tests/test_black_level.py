@@ -98,3 +98,17 @@ def test_raw_from_array_carries_the_black_level():
     for bad in (-1, "x", float("nan")):
         with pytest.raises(ParameterError, match="black_level"):
             cs.raw_from_array(np.zeros((2, 2)), "GRBG", black_level=bad)
+
+
+def test_changing_the_black_level_reruns_from_digitize_only(dcs200_ir):
+    from camsim_core.cache import Pipeline, Processing
+
+    scene = _flat()
+    pipe = Pipeline()
+    cam = dcs200_ir.replace(distance=3.0)
+    first = pipe.run(scene, cam, Processing(metrics=("cielab",)))
+    again = pipe.run(scene, cam.replace(black_level=15), Processing(metrics=("cielab",)))
+    assert "stage:digitize" in again.ran_steps and "stage:resample" not in again.ran_steps
+    assert again.raw.black_level == 15.0
+    # the pedestal is removed by processing: the rendered image is unchanged within a level
+    assert np.max(np.abs(again.rendered.data - first.rendered.data)) <= 1.0

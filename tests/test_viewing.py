@@ -76,3 +76,15 @@ def test_pipeline_takes_the_viewing():
     assert b.scielab.mean() > 1.5 * a.scielab.mean()
     c = pipe.run(scene, cam, Processing(viewing="nonsense"))
     assert "scielab" in c.errors and "viewing" in c.errors["scielab"]
+
+
+def test_scielab_takes_a_viewing_instead_of_a_number():
+    rng = np.random.default_rng(0)
+    a = rng.uniform(10, 50, (40, 40, 3))
+    b = a + rng.normal(0, 1, a.shape)
+    white = np.array([95.05, 100.0, 108.9])
+    s = parse_viewing("display:0.25mm@0.6m").rate()
+    np.testing.assert_array_equal(scielab(a, b, "display:0.25mm@0.6m", white), scielab(a, b, s, white))
+    np.testing.assert_array_equal(scielab(a, b, Viewing("samples", samples_per_degree=12.0), white), scielab(a, b, 12.0, white))
+    with pytest.raises(ParameterError, match="angular resolution"):
+        scielab(a, b, "camera", white)  # needs the camera: use Viewing.rate(image)

@@ -148,6 +148,13 @@ def display_samples_per_degree(pixel_pitch, viewing_distance):
 
 
 def _check_spd(samples_per_degree):
+    if isinstance(samples_per_degree, str) or hasattr(samples_per_degree, "rate"):
+        from .viewing import parse_viewing
+
+        try:
+            return parse_viewing(samples_per_degree).rate()  # a viewing that does not need the camera
+        except ParameterError as exc:
+            raise ParameterError("samples_per_degree", f"must be a positive number or a viewing ({exc})") from None
     try:
         s = float(samples_per_degree)
     except (TypeError, ValueError):
@@ -301,9 +308,11 @@ def scielab(xyz1, xyz2, samples_per_degree, white, *, method="CIE 1976"):
     ----------
     xyz1, xyz2 : array_like (H, W, 3)
         CIE 1931 XYZ of the two displayed images, in the unit of ``white``.
-    samples_per_degree : float
-        Image samples per degree of visual angle (> 0); see
-        :func:`samples_per_degree` for how it follows from the camera.
+    samples_per_degree : float, Viewing or str
+        Image samples per degree of visual angle (> 0), or a viewing that
+        fixes them without the camera (``"spd:10.26"``,
+        ``"display:0.25mm@0.6m"``; see :mod:`.viewing`, whose
+        ``Viewing.rate(image)`` gives the camera-based ones).
     white : array_like (3,)
         XYZ of the reference white (all positive).
     method : {"CIE 1976", "CIE 2000"}
