@@ -35,14 +35,15 @@ The variants differ in what is taken from the real image:
     The real raw's black level (pedestal) is estimated from its own darkest
     pixels, never fitted to the Delta E: for each sensor class the
     ``black_percentile``-th percentile of its raw values (0.1 by default:
-    the level under which one pixel in a thousand of that class lies, in
-    the black gaps between the chart's patches); the pedestal is one
+    the level under which one pixel in a thousand of that class lies; on
+    the shipped raw those pixels lie in its darkest area, the bottom rows
+    at the left, where the local mean is 23-25 DU); the pedestal is one
     electronic offset of the sensor's read-out, common to all classes, and
-    a class's darkest pixels hold it plus the light the black paper still
-    reflects, so the common pedestal is the smallest of the three (the
+    a class's darkest pixels hold it plus whatever light still reaches
+    them, so the common pedestal is the smallest of the three (the
     least-lit class, blue through the IR filter). ``black_per_class=True``
-    subtracts each class's own percentile instead, which also removes the
-    black paper's light from R and G. The raw carries the pedestal and
+    subtracts each class's own percentile instead, which also removes that
+    light from R and G. The raw carries the pedestal and
     demosaicing subtracts it as a raw converter does. Then the one gain,
     as in ``chapter``.
 ``cross_validated``
@@ -279,9 +280,9 @@ def _affine_diagnostic(r, s):
 def estimate_black_level(raw, tile, percentile=0.1):
     """Per sensor class, the ``percentile``-th percentile of the raw values at that class's sites (DU).
 
-    The darkest pixels of a real raw (here the black gaps between the
-    chart's patches) hold the pedestal plus a little light and noise; a low
-    percentile rather than the minimum keeps one odd pixel from deciding.
+    The darkest pixels of a real raw hold the pedestal plus a little light
+    and noise; a low percentile rather than the minimum keeps one odd pixel
+    from deciding.
     """
     from ..simulation import tile_index_map
 
