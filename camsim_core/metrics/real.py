@@ -59,8 +59,9 @@ the headers (182 x 290 hyperspectral pixels at 57.3 px/deg and 2.375 m
 seen at 3.32 m by a 102.6 px/deg camera: 233.2 x 371.6); the real raw
 covers the same field in 162 x 252 pixels, so the registration finds a
 scale of about 1.46 simulated pixels per real pixel. The difference is in
-the data, not in camsim's geometry: the chart's patch pitch is about 98 px
-in the hyperspectral image and 86 px in the real raw, which with the
+the data, not in camsim's geometry: the chart's patch pitch, measured by
+hand, is about 98 px in the hyperspectral image and 86 px in the real raw,
+which with the
 headers' distances and angular resolutions puts the chart's pitch at 71 mm
 from the hyperspectral side and 48.6 mm from the DCS side; one of the
 headers (an angular resolution or a distance) is off by about 1.46.
