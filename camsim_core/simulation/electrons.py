@@ -1,0 +1,117 @@
+"""The electron-level sensor: from mean photo-electrons to digital values, with EMVA 1288's noise model.
+
+Used by the noise stage for ``noise_model="photon"``. The sensor stage has
+put the mean number of photo-electrons of each pixel, mu_e = eta mu_p
+(quantum efficiency x fill factor x photons on the pixel area in the
+exposure), divided by ``electrons_per_dn``, in the image. This module
+follows the linear camera model of EMVA Standard 1288 (Release 4.0,
+section 2; symbols in brackets):
+
+* photo response non-uniformity (PRNU_1288, ``prnu``, a fraction rms): each
+  pixel's gain is 1 + prnu x g, g a fixed standard normal pattern;
+* dark signal (mu_d): ``dark_current`` (mu_I, e-/s) x exposure time;
+* photon and dark-current shot noise: a Poisson draw of mean
+  mu_e (1 + prnu g) + mu_d (sigma_e^2 = mu_e);
+* dark signal non-uniformity (DSNU_1288, ``dsnu``, e- rms): a fixed
+  offset pattern dsnu x o, o standard normal;
+* saturation (mu_e.sat, ``full_well``): the charge is clipped at the full
+  well (also from below at zero);
+* temporal dark noise (sigma_d, ``read_noise``, e- rms): Gaussian;
+* overall system gain (K, DN/e-) = ``analog_gain`` / ``electrons_per_dn``:
+  ``electrons_per_dn`` is the conversion gain's inverse at unit analog gain;
+* an offset in DN (``noise_mean``); the black level and the ADC (``bits``)
+  are the digitize stage's.
+
+The fixed patterns g and o come from ``pattern_seed`` (the sensor's own
+identity): the same in every frame. The temporal noise comes from
+``seed``. Drawing order (Poisson, then the read noise, from one
+generator seeded with ``seed``) is that of the plain photon model, so with
+every sensor imperfection switched off the result is the same draw.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from ..errors import ParameterError
+
+__all__ = ["electron_sensor", "fixed_patterns", "system_gain", "check_sensor_fields"]
+
+
+def system_gain(camera):
+    """Overall system gain K, DN per electron: ``analog_gain / electrons_per_dn``."""
+    return float(camera.analog_gain) / float(camera.electrons_per_dn)
+
+
+@lru_cache(maxsize=16)
+def _patterns(seed, shape):
+    rng = np.random.default_rng([int(seed), 1288])
+    g = rng.standard_normal(shape)
+    o = rng.standard_normal(shape)
+    g.flags.writeable = False
+    o.flags.writeable = False
+    return g, o
+
+
+def fixed_patterns(pattern_seed, shape):
+    """The PRNU and DSNU patterns (standard normal, read-only) of a sensor of ``shape``: the same for every frame."""
+    return _patterns(int(pattern_seed), tuple(int(s) for s in shape))
+
+
+def electron_sensor(camera, image):
+    """Mean photo-electrons (``image.data x electrons_per_dn``) to noisy digital values (not yet quantized)."""
+    rng = np.random.default_rng(camera.seed)
+    data = np.asarray(image.data, float)
+    mu_e = np.clip(data, 0, None) * camera.electrons_per_dn
+    prnu_on = camera.prnu > 0
+    dsnu_on = camera.dsnu > 0
+    if prnu_on or dsnu_on:
+        g, o = fixed_patterns(camera.pattern_seed, data.shape)
+    if prnu_on:
+        mu_e = mu_e * np.clip(1.0 + camera.prnu * g, 0.0, None)
+    mu_d = camera.dark_current * camera.exposure
+    electrons = rng.poisson(mu_e + mu_d if mu_d > 0 else mu_e).astype(float)
+    if dsnu_on:
+        electrons += camera.dsnu * o
+    if camera.full_well is not None:
+        np.clip(electrons, 0.0, camera.full_well, out=electrons)
+    if camera.read_noise > 0:
+        electrons += rng.normal(0.0, camera.read_noise, size=data.shape)
+    k = system_gain(camera)
+    out = electrons * k + camera.noise_mean
+    sigma = float(np.sqrt(camera.read_noise**2 + float(mu_e.mean()) + mu_d) * k)
+    return image.then("noise", data=out, noise_sigma=sigma)
+
+
+def _positive_or_zero(camera, name, unit):
+    v = getattr(camera, name)
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not np.isfinite(v) or v < 0:
+        raise ParameterError(name, f"must be a non-negative number of {unit}, got {v!r}")
+
+
+def check_sensor_fields(camera):
+    """Validate the electron-level sensor fields of a camera (called by ``Camera.__post_init__``)."""
+    ff = camera.fill_factor
+    if isinstance(ff, bool) or not isinstance(ff, (int, float, np.integer, np.floating)) or not (np.isfinite(ff) and 0 < ff <= 1):
+        raise ParameterError("fill_factor", f"must be a fraction in (0, 1] of the pixel area that collects light, got {ff!r}")
+    _positive_or_zero(camera, "dark_current", "electrons per second")
+    _positive_or_zero(camera, "dsnu", "electrons rms")
+    _positive_or_zero(camera, "prnu", "fraction rms (0.01 = 1 %)")
+    g = camera.analog_gain
+    if isinstance(g, bool) or not isinstance(g, (int, float, np.integer, np.floating)) or not (np.isfinite(g) and g > 0):
+        raise ParameterError("analog_gain", f"must be a positive number, got {g!r}")
+    if camera.full_well is not None:
+        fw = camera.full_well
+        if isinstance(fw, bool) or not isinstance(fw, (int, float, np.integer, np.floating)) or not (np.isfinite(fw) and fw > 0):
+            raise ParameterError("full_well", f"must be a positive number of electrons or None (no saturation), got {fw!r}")
+        if fw <= camera.read_noise:
+            raise ParameterError("full_well", f"{fw:g} e- is not above the read noise ({camera.read_noise:g} e- rms): no signal could be told from noise")
+    if isinstance(camera.pattern_seed, bool) or not isinstance(camera.pattern_seed, (int, np.integer)) or camera.pattern_seed < 0:
+        raise ParameterError("pattern_seed", f"must be a whole number >= 0, got {camera.pattern_seed!r}")
+    physical = (camera.full_well is not None or camera.dark_current > 0 or camera.dsnu > 0 or camera.prnu > 0
+                or camera.analog_gain != 1)
+    if physical and camera.noise_model != "photon":
+        raise ParameterError("noise_model", 'full_well, dark_current, dsnu, prnu and analog_gain belong to the electron-level sensor: '
+                             'use noise_model="photon" (with sensitivities in quanta)')
