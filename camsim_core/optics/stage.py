@@ -66,8 +66,12 @@ def plane_otfs(shape, pitch, wavelengths, f_number, defocus=None):
     wl = np.asarray(wavelengths, float)
     if defocus is None or not np.any(defocus):
         return np.stack([diffraction_mtf(rho, lam, f_number) for lam in wl])
-    v = rho[None, :, :] * (wl[:, None, None] * 1e-6) * f_number
-    return np.stack([defocus_otf(v[k], defocus[k]) for k in range(wl.size)])
+    out = np.empty((wl.size,) + rho.shape)
+    for k in range(wl.size):
+        # a radial table, fine enough for the OTF's oscillation (period 1 / (4 w) in v), interpolated onto the grid
+        table_v = np.linspace(0.0, 1.0, int(max(1025, 64 * abs(defocus[k]))))
+        out[k] = np.interp(rho * (wl[k] * 1e-6) * f_number, table_v, defocus_otf(table_v, defocus[k]), right=0.0)
+    return out
 
 
 def _margin(n, pitch_mm, wavelength_mm, f_number, waves):
