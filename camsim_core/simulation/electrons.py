@@ -12,10 +12,10 @@ section 2; symbols in brackets):
 * dark signal (mu_d): ``dark_current`` (mu_I, e-/s) x exposure time;
 * photon and dark-current shot noise: a Poisson draw of mean
   mu_e (1 + prnu g) + mu_d (sigma_e^2 = mu_e);
+* saturation (mu_e.sat, ``full_well``): the charge is clipped at the full well;
 * dark signal non-uniformity (DSNU_1288, ``dsnu``, e- rms): a fixed
-  offset pattern dsnu x o, o standard normal;
-* saturation (mu_e.sat, ``full_well``): the charge is clipped at the full
-  well (also from below at zero);
+  offset pattern dsnu x o, o standard normal, of either sign (an offset of
+  the read-out, as the read noise);
 * temporal dark noise (sigma_d, ``read_noise``, e- rms): Gaussian;
 * overall system gain (K, DN/e-) = ``analog_gain`` / ``electrons_per_dn``:
   ``electrons_per_dn`` is the conversion gain's inverse at unit analog gain;
@@ -73,10 +73,10 @@ def electron_sensor(camera, image):
         mu_e = mu_e * np.clip(1.0 + camera.prnu * g, 0.0, None)
     mu_d = camera.dark_current * camera.exposure
     electrons = rng.poisson(mu_e + mu_d if mu_d > 0 else mu_e).astype(float)
+    if camera.full_well is not None:
+        np.minimum(electrons, camera.full_well, out=electrons)
     if dsnu_on:
         electrons += camera.dsnu * o
-    if camera.full_well is not None:
-        np.clip(electrons, 0.0, camera.full_well, out=electrons)
     if camera.read_noise > 0:
         electrons += rng.normal(0.0, camera.read_noise, size=data.shape)
     k = system_gain(camera)
