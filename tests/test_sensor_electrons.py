@@ -27,13 +27,13 @@ H_C = 6.62607015e-34 * 299792458.0
 LAMBDA, QE, PITCH, F_NUMBER, EPD = 550.0, 0.6, 5.86e-6, 4.0, 4.0
 SET = dict(read_noise=7.0, dark_current=40.0, full_well=20000.0, dsnu=3.0, prnu=0.005)
 SIZE = 160
-OFFSET = 100.0  # DN, a pedestal so that the dark signal is never clipped at 0
+OFFSET = 100.0  # DN, the black level: a pedestal so that the dark signal is never clipped at 0
 
 
 def sensor(**changes):
     sens = Sensors([500.0, 600.0], [[QE, QE]], ("Y",), "Quanta", "mono")
     kw = dict(sensors=sens, pixel_size=(PITCH, PITCH), f_stop=F_NUMBER, electrons_per_dn=EPD, bits=14, height=SIZE,
-              width=SIZE, angular_resolution=(57.3, 57.3), noise_model="photon", noise_mean=OFFSET, pattern_seed=7, **SET)
+              width=SIZE, angular_resolution=(57.3, 57.3), noise_model="photon", black_level=OFFSET, pattern_seed=7, **SET)
     kw.update(changes)
     return cs.Camera(**kw)
 
@@ -164,7 +164,7 @@ def test_cross_check_with_the_emva1288_reference_implementation(series, monkeypa
 def test_without_imperfections_the_photon_model_is_the_plain_quantal_model_draw_for_draw():
     """Read noise only, no full well, unit gains: exactly the plain photon model (Poisson, then Gaussian read noise)."""
     cam = sensor(read_noise=2.0, dark_current=0.0, full_well=None, dsnu=0.0, prnu=0.0, electrons_per_dn=1.0, bits=None,
-                 noise_mean=0.0, seed=11)
+                 black_level=0.0, seed=11)
     scene = Scene(np.random.default_rng(3).uniform(0, 0.02, (SIZE, SIZE, 1)), [LAMBDA], angular_resolution=(57.3, 57.3))
     got = cs.simulate(scene, cam).data
     mean = cs.simulate(scene, cam.replace(noise_model="gaussian", read_noise=0.0)).data
@@ -176,7 +176,7 @@ def test_without_imperfections_the_photon_model_is_the_plain_quantal_model_draw_
 
 
 def test_full_well_clips_and_analog_gain_scales():
-    cam = sensor(read_noise=0.0, dark_current=0.0, dsnu=0.0, prnu=0.0, bits=None, noise_mean=0.0)
+    cam = sensor(read_noise=0.0, dark_current=0.0, dsnu=0.0, prnu=0.0, bits=None, black_level=0.0)
     over = frame(cam, RADIANCE, 2 * T_FULL, 1)
     assert over.max() == SET["full_well"] / EPD and np.mean(over == SET["full_well"] / EPD) > 0.99
     g1 = frame(cam.replace(full_well=None), RADIANCE, 0.5 * T_FULL, 1)
