@@ -404,6 +404,7 @@ def figure(summary):
 
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.ticker import NullFormatter
 
     fig = Figure(figsize=(6.4, 4.2), layout="constrained")
     FigureCanvasAgg(fig)
@@ -417,6 +418,7 @@ def figure(summary):
         line = ax.errorbar(p, m, yerr=s if np.any(s > 0) else None, marker="o", ms=3, capsize=2, label=f"{v:g} lux")
         ax.plot([best[v]], [min(m)], marker="*", ms=12, color=line[0].get_color())
     ax.set_xscale("log")
+    ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xticks([1, 1.4, 2, 2.8, 4, 5.6], labels=["1", "1.4", "2", "2.8", "4", "5.6"])
     ax.set_xlabel("pixel pitch (µm), fixed 4.8 x 3.6 mm sensor")
     ax.set_ylabel("mean S-CIELAB ΔE*ab")

@@ -33,6 +33,8 @@ irradiance. :func:`sensor_irradiance` converts to W/m^2.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 import scipy.fft as sfft
 
@@ -57,8 +59,23 @@ def optics_active(camera):
 def plane_otfs(shape, pitch, wavelengths, f_number, defocus=None):
     """(N, H, W//2 + 1) OTFs on the real-FFT grid of an (H, W) plane sampled every ``pitch`` (dy, dx) m.
 
-    ``defocus``: W020 in waves per wavelength (array), or None.
+    ``defocus``: W020 in waves per wavelength (array), or None. Cached (a
+    pure function of its arguments; read-only result): moving another
+    parameter of the camera does not recompute them.
     """
+    key = (tuple(int(v) for v in shape), tuple(float(v) for v in pitch), tuple(np.asarray(wavelengths, float).tolist()),
+           float(f_number), None if defocus is None else tuple(np.asarray(defocus, float).tolist()))
+    return _plane_otfs(*key)
+
+
+@lru_cache(maxsize=8)
+def _plane_otfs(shape, pitch, wavelengths, f_number, defocus):
+    out = _compute_otfs(shape, pitch, wavelengths, f_number, None if defocus is None else np.asarray(defocus))
+    out.flags.writeable = False
+    return out
+
+
+def _compute_otfs(shape, pitch, wavelengths, f_number, defocus):
     h, w = shape
     fy = sfft.fftfreq(h, d=pitch[0] * 1e3)  # cycles/mm
     fx = sfft.rfftfreq(w, d=pitch[1] * 1e3)
@@ -97,9 +114,9 @@ def blur_planes(data, wavelengths, pitch, f_number, defocus=None):
     wp = sfft.next_fast_len(w + 2 * mx, real=True)
     planes = np.pad(np.moveaxis(data, 2, 0), ((0, 0), (my, hp - h - my), (mx, wp - w - mx)), mode="symmetric")
     otf = plane_otfs((hp, wp), pitch, wl, f_number, defocus)
-    spectrum = sfft.rfft2(planes, axes=(1, 2))
+    spectrum = sfft.rfft2(planes, axes=(1, 2), overwrite_x=True)
     spectrum *= otf
-    out = sfft.irfft2(spectrum, s=(hp, wp), axes=(1, 2))[:, my : my + h, mx : mx + w]
+    out = sfft.irfft2(spectrum, s=(hp, wp), axes=(1, 2), overwrite_x=True)[:, my : my + h, mx : mx + w]
     return np.ascontiguousarray(np.moveaxis(out, 0, 2))
 
 
