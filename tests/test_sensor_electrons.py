@@ -198,3 +198,38 @@ def test_full_well_clips_and_analog_gain_scales():
 def test_bad_sensor_parameters_are_refused_with_the_field_named(changes, field):
     with pytest.raises(cs.ParameterError, match=field):
         sensor(**changes)
+
+
+# --- physical presets ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name, pitch, well, bits", [("phone-1.4um", 1.4, 4300.0, 10), ("imx174", 5.86, 32000.0, 12)])
+def test_physical_presets_carry_their_published_parameters_and_sources(cacaphony, name, pitch, well, bits):
+    cam = cs.load_camera(name)
+    assert cam.pixel_size == (pitch * 1e-6, pitch * 1e-6) and cam.full_well == well and cam.bits == bits
+    assert cam.noise_model == "photon" and cam.optics == "diffraction" and cam.sensors.unit == "Quanta"
+    assert "source:" in cam.comments and ("EMVA" in cam.comments or "datasheet" in cam.comments)
+    # the ADC spans the well: full well x K = 2^bits - 1
+    assert cam.full_well / cam.electrons_per_dn == pytest.approx(2**bits - 1)
+    # pixels per degree from the pitch and the focal length
+    assert cam.angular_resolution[0] == pytest.approx(1 / np.degrees(np.arctan(pitch * 1e-6 / (cam.focal_length * 1e-3))))
+    raw = cs.simulate(cacaphony, cam.replace(distance=3.32))
+    assert raw.mosaiced and raw.bits == bits and 0 <= raw.data.min() and raw.data.max() <= 2**bits - 1
+    assert raw.history[1] == "optics"
+
+
+def test_phone_preset_read_noise_is_the_datasheets_dynamic_range():
+    cam = cs.load_camera("phone-1.4um")
+    assert 20 * np.log10(cam.full_well / cam.read_noise) == pytest.approx(68.0, abs=0.1)
+
+
+def test_a_sensor_sheet_without_its_fields_is_refused(tmp_path):
+    from camsim_core.camera import physical_camera
+
+    sheet = tmp_path / "bad.json"
+    sheet.write_text('{"pixel_pitch_um": 2.0}')
+    with pytest.raises(cs.FileFormatError, match="missing field"):
+        physical_camera(str(sheet))
+    (tmp_path / "junk.json").write_text("{not json")
+    with pytest.raises(cs.FileFormatError, match="JSON"):
+        physical_camera(str(tmp_path / "junk.json"))
