@@ -233,3 +233,21 @@ def test_a_sensor_sheet_without_its_fields_is_refused(tmp_path):
     (tmp_path / "junk.json").write_text("{not json")
     with pytest.raises(cs.FileFormatError, match="JSON"):
         physical_camera(str(tmp_path / "junk.json"))
+
+
+def test_photon_transfer_curve_of_a_preset_has_the_system_gain_as_its_slope():
+    from camsim_core.simulation.electrons import photon_transfer
+
+    cam = cs.load_camera("imx174")
+    ptc = photon_transfer(cam, np.linspace(0.001, 0.02, 8), size=96)
+    k = cam.analog_gain / cam.electrons_per_dn
+    green = list(ptc["names"]).index("G")
+    mu, var = ptc["mean"][:, green], ptc["variance"][:, green]
+    lin = mu < 0.7 * mu.max()
+    slope = np.polyfit(mu[lin], var[lin], 1)[0]
+    assert slope == pytest.approx(k, rel=0.05) and ptc["gain"] == pytest.approx(k)
+    assert var[-1] < 0.5 * var[lin].max()  # saturated: the temporal variance collapses
+    with pytest.raises(cs.ParameterError, match="noise_model"):
+        photon_transfer(cs.load_camera("kodak-dcs200-ir"), [0.01, 0.02])
+    with pytest.raises(cs.ParameterError, match="exposures"):
+        photon_transfer(cam, [0.01, -1])

@@ -37,7 +37,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["electron_sensor", "fixed_patterns", "system_gain", "check_sensor_fields"]
+__all__ = ["electron_sensor", "fixed_patterns", "system_gain", "check_sensor_fields", "photon_transfer"]
 
 
 def system_gain(camera):
@@ -115,3 +115,55 @@ def check_sensor_fields(camera):
     if physical and camera.noise_model != "photon":
         raise ParameterError("noise_model", 'full_well, dark_current, dsnu, prnu and analog_gain belong to the electron-level sensor: '
                              'use noise_model="photon" (with sensitivities in quanta)')
+
+
+def photon_transfer(camera, exposures, *, radiance=None, size=64, seeds=(0, 1)):
+    """EMVA 1288's photon transfer of a camera's sensor: flat-field mean and temporal variance per exposure.
+
+    Two frames (``seeds``) of a flat field (the same radiance in every band)
+    per exposure time, with the camera's sensor but no lens effects and no
+    mosaic (each sensor class at every pixel). ``radiance`` (W/sr/m^2 per
+    band) defaults to the level that brings the most sensitive class to 1.2x
+    its saturation at the longest exposure. Per EMVA 1288: mu_y = mean of the
+    two frames less the black level; sigma_y^2 = mean((y_A - y_B)^2) / 2 -
+    (mu_A - mu_B)^2 / 2.
+
+    Returns a dict: ``exposure`` (E,), ``mean`` and ``variance`` (E, K) in DN,
+    ``names`` of the classes, ``radiance``, ``gain`` (K, DN/e-).
+    """
+    from .pipeline import run_stages
+    from .sensor import sensor_weights
+
+    if camera.noise_model != "photon":
+        raise ParameterError("noise_model", 'photon transfer needs the electron-level sensor (noise_model="photon")')
+    t = np.asarray(exposures, float).ravel()
+    if t.size < 2 or not np.all(np.isfinite(t)) or np.any(t <= 0):
+        raise ParameterError("exposures", f"need at least two positive exposure times (s), got {exposures!r}")
+    n = int(size)
+    if not 8 <= n <= 1024:
+        raise ParameterError("size", f"must be 8 to 1024 pixels, got {size!r}")
+    cam = camera.replace(mosaic=None, optics="none", defocus=0.0, lens_transmittance=None, relative_illumination=False,
+                         vignetting=0.0, height=n, width=n, distance=None)
+    wl = cam.sensors.wavelengths
+    if radiance is None:
+        per_radiance = sensor_weights(cam.replace(exposure=float(t.max())), wl)[0].sum(axis=0).max()  # e- / epd
+        limit = (cam.full_well / cam.electrons_per_dn if cam.full_well is not None
+                 else (cam.full_scale or 2.0**16) / system_gain(cam) / cam.electrons_per_dn)
+        radiance = 1.2 * limit / per_radiance
+    image = image_from_scene_data(np.full((n, n, wl.size), float(radiance)), wl, cam.angular_resolution)
+    means, variances = [], []
+    for ti in t:
+        a, b = (run_stages(cam.replace(exposure=float(ti), seed=int(s)), image).data - cam.black_level for s in seeds[:2])
+        ma, mb = a.mean(axis=(0, 1)), b.mean(axis=(0, 1))
+        means.append((ma + mb) / 2)
+        variances.append(np.mean((a - b) ** 2, axis=(0, 1)) / 2 - (ma - mb) ** 2 / 2)
+    return {"exposure": t, "mean": np.array(means), "variance": np.array(variances), "names": cam.sensors.names,
+            "radiance": float(radiance), "gain": system_gain(cam)}
+
+
+def image_from_scene_data(data, wavelengths, angular_resolution):
+    """A spectral CameraImage of ``data`` seen from 1 m (the flat fields of :func:`photon_transfer`)."""
+    from ..image import CameraImage
+
+    return CameraImage(data=data, wavelengths=np.asarray(wavelengths, float), distance=1.0,
+                       angular_resolution=angular_resolution, space="spectral", history=("flat field",))
