@@ -7,7 +7,10 @@ caused by the same change." A 4.8 x 3.6 mm sensor (1/3 inch) behind a
 at several light levels; its pixel pitch runs from 1 to 5.6 um (4800 x 3600
 down to 857 x 642 pixels). Each camera image is demosaiced, colour-corrected
 to CIE XYZ and compared with the ideal image (the scene's own XYZ, no lens,
-no sensor) by the mean S-CIELAB dE*ab.
+no sensor) by the mean S-CIELAB dE*ab. Beside it, the two measures the
+error trades: the SNR of an 18 % grey field's green pixels (dB) and the
+MTF50 of the noiseless camera on an ISO 12233 slanted edge (cycles/mm at
+the sensor, :mod:`camsim_core.metrics.sharpness`).
 
 The camera (everything else fixed)
 ----------------------------------
@@ -105,7 +108,7 @@ WELL_PER_UM2, READ_NOISE, DARK_PER_UM2, DSNU, PRNU, TRENCH_UM, BITS = 2200.0, 1.
 MAX_EXPOSURE_S, WHITE_FILL, MAX_GAIN = 1 / 30, 0.8, 64.0
 
 _RECORD_COLUMNS = ("pitch_um", "lux", "seed", "noise_seed", "pixels", "exposure_s", "analog_gain", "white_electrons", "full_well",
-                   "fill_factor", "saturated", "error", "seconds")
+                   "fill_factor", "saturated", "error", "snr_db", "mtf50_cyc_per_mm", "seconds")
 
 
 @dataclass(frozen=True)
@@ -314,8 +317,51 @@ def _to_grid(xyz, pitch_um, n_grid):
     return np.stack([map_coordinates(xyz[:, :, c], [yy, xx], order=1, mode="nearest") for c in range(3)], axis=2)
 
 
+@lru_cache(maxsize=1)
+def _edge_optics():
+    """A slanted edge (ISO 12233, 5 degrees, 4:1) at the scene's sampling through the lens, at 1 lux (linear in the light)."""
+    from ..image import image_from_scene
+    from ..optics import optics
+    from ..scene.charts import slanted_edge_scene
+
+    n = int(round(PATCH_UM / SCENE_STEP_UM))
+    edge = slanted_edge_scene(n, luminance=1.0 / np.pi, distance=DISTANCE_M, angular_resolution=(_ppd(SCENE_STEP_UM),) * 2)
+    return optics(camera(PATCH_UM / 8), image_from_scene(edge))
+
+
+@lru_cache(maxsize=32)
+def sharpness(pitch_um, demosaic_method="bilinear"):
+    """MTF50 (cycles/mm at the sensor) of the noiseless camera's demosaiced luminance on a slanted edge.
+
+    Lens, pixel aperture, mosaic and demosaicing: what the pitch does to
+    resolution, without noise (the edge's light level does not matter).
+    """
+    from .. import demosaic
+    from ..metrics.sharpness import edge_mtf
+    from ..simulation import run_stages
+
+    cam = camera(pitch_um).replace(noise_model="gaussian", full_well=None, dark_current=0.0, dsnu=0.0, prnu=0.0,
+                                   bits=None, black_level=0.0)
+    raw = run_stages(cam, _edge_optics(), [s for s in cam.architecture if s.__name__ != "optics"])
+    m = edge_mtf(demosaic(raw, method=demosaic_method))["luminance"]
+    return float(m["mtf50"]) / (float(pitch_um) * 1e-3)
+
+
+def grey_snr(cam, lux):
+    """SNR (dB) of the green pixels of the raw of an 18 % grey field at ``lux``: the noise the pitch leaves."""
+    from ..metrics.snr import region_snr
+    from ..scene.charts import uniform_scene
+    from ..simulation import simulate
+
+    n = cam.height
+    grey = uniform_scene(n, luminance=0.18 * lux / np.pi, distance=DISTANCE_M, angular_resolution=cam.angular_resolution)
+    raw = simulate(grey, cam.replace(optics="none"))  # a uniform field: the blur changes nothing
+    return float(region_snr(raw)["G"]["snr_db"])
+
+
 def evaluate(config):
-    """Mean S-CIELAB dE*ab of one camera image against the ideal image, with the sensor's operating point."""
+    """Mean S-CIELAB dE*ab of one camera image against the ideal image, with the sensor's operating point,
+    the SNR of an 18 % grey and the MTF50 of a slanted edge."""
     from .. import demosaic
     from ..metrics import scielab
     from ..simulation import run_stages
@@ -345,7 +391,8 @@ def evaluate(config):
     rec = asdict(config)
     rec.update(noise_seed=config.noise_seed, pixels=int(raw.data.shape[0]), exposure_s=exposure, analog_gain=gain,
                white_electrons=white_e, full_well=cam.full_well, fill_factor=cam.fill_factor,
-               saturated=float(np.mean(raw.data >= 2**BITS - 1)), error=error, seconds=time.perf_counter() - t0)
+               saturated=float(np.mean(raw.data >= 2**BITS - 1)), error=error, snr_db=grey_snr(cam, config.lux),
+               mtf50_cyc_per_mm=sharpness(config.pitch_um, config.demosaic), seconds=time.perf_counter() - t0)
     return rec
 
 
@@ -358,10 +405,18 @@ def run(*, pitches=PITCHES_UM, lux=LUX, seeds=1, demosaic="bilinear", workers=No
 
 
 def summarize(records):
-    """Mean and standard deviation over seeds: one row per (lux, pitch)."""
+    """Mean and standard deviation over seeds of the error: one row per (lux, pitch), with the mean
+    grey SNR (dB) and the MTF50 (cycles/mm) beside it when the records hold them."""
     rows = _summarize(records, ("lux", "pitch_um"), ("error",), value_name="measure")
+    extra = {}
+    for r in records:
+        extra.setdefault((r["lux"], r["pitch_um"]), []).append(r)
     for r in rows:
         del r["measure"]
+        group = extra[r["lux"], r["pitch_um"]]
+        for key in ("snr_db", "mtf50_cyc_per_mm"):
+            if all(key in g for g in group):
+                r[key] = float(np.mean([g[key] for g in group]))
     return rows
 
 
@@ -399,33 +454,52 @@ def table(summary):
 
 
 def figure(summary):
-    """Mean S-CIELAB error against pitch, one curve per light level (matplotlib Figure, Agg)."""
+    """Mean S-CIELAB error against pitch, one curve per light level; beside it, when the summary holds them,
+    the grey SNR and the MTF50 that the error trades (matplotlib Figure, Agg)."""
     import math
 
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from matplotlib.ticker import NullFormatter
 
-    fig = Figure(figsize=(6.4, 4.2), layout="constrained")
+    measures = all("snr_db" in r and "mtf50_cyc_per_mm" in r for r in summary)
+    fig = Figure(figsize=(13.0 if measures else 6.4, 4.2), layout="constrained")
     FigureCanvasAgg(fig)
-    ax = fig.subplots()
+    axes = fig.subplots(1, 3 if measures else 1, squeeze=False)[0]
+    ax = axes[0]
     best = optimum(summary)
-    for v in dict.fromkeys(r["lux"] for r in summary):
+    lux_levels = list(dict.fromkeys(r["lux"] for r in summary))
+    colours = {}
+    for v in lux_levels:
         rows = sorted((r for r in summary if r["lux"] == v), key=lambda r: r["pitch_um"])
         p = np.array([r["pitch_um"] for r in rows])
         m = np.array([r["mean"] for r in rows])
         s = np.array([r["std"] if math.isfinite(r["std"]) else 0.0 for r in rows])
         line = ax.errorbar(p, m, yerr=s if np.any(s > 0) else None, marker="o", ms=3, capsize=2, label=f"{v:g} lux")
-        ax.plot([best[v]], [min(m)], marker="*", ms=12, color=line[0].get_color())
-    ax.set_xscale("log")
-    ax.xaxis.set_minor_formatter(NullFormatter())
-    ax.set_xticks([1, 1.4, 2, 2.8, 4, 5.6], labels=["1", "1.4", "2", "2.8", "4", "5.6"])
-    ax.set_xlabel("pixel pitch (µm), fixed 4.8 x 3.6 mm sensor")
+        colours[v] = line[0].get_color()
+        ax.plot([best[v]], [min(m)], marker="*", ms=12, color=colours[v])
+        if measures:
+            axes[1].plot(p, [r["snr_db"] for r in rows], marker="o", ms=3, color=colours[v], label=f"{v:g} lux")
     ax.set_ylabel("mean S-CIELAB ΔE*ab")
     ax.set_ylim(bottom=0)
-    ax.grid(True, alpha=0.3)
     ax.legend(title="scene illuminance", fontsize="small")
-    ax.set_title(f"Pixel size: noise against resolution ({FOCAL_MM:g} mm f/{F_NUMBER:g}, ★ = best pitch)", fontsize="medium")
+    ax.set_title(f"Error against the ideal image (★ = best pitch)", fontsize="medium")
+    if measures:
+        rows = sorted((r for r in summary if r["lux"] == lux_levels[0]), key=lambda r: r["pitch_um"])
+        axes[2].plot([r["pitch_um"] for r in rows], [r["mtf50_cyc_per_mm"] for r in rows], marker="o", ms=3, color="black")
+        axes[1].set_ylabel("SNR of an 18 % grey, green pixels (dB)")
+        axes[1].set_title("Noise: SNR grows with the pixel", fontsize="medium")
+        axes[2].set_ylabel("MTF50 (cycles/mm at the sensor)")
+        axes[2].set_ylim(bottom=0)
+        axes[2].set_title("Sharpness: MTF50 of a slanted edge (noiseless)", fontsize="medium")
+    for a in axes:
+        a.set_xscale("log")
+        a.xaxis.set_minor_formatter(NullFormatter())
+        a.set_xticks([1, 1.4, 2, 2.8, 4, 5.6], labels=["1", "1.4", "2", "2.8", "4", "5.6"])
+        a.set_xlabel("pixel pitch (µm), fixed 4.8 x 3.6 mm sensor")
+        a.grid(True, alpha=0.3)
+    fig.suptitle(f"Pixel size: noise against resolution ({FOCAL_MM:g} mm f/{F_NUMBER:g} lens, bilinear demosaic)",
+                 fontsize="medium")
     return fig
 
 
@@ -439,6 +513,7 @@ def write_outputs(records, folder):
     rows = [{**r, "best_pitch_um": best[r["lux"]]} for r in summary]
     return [
         write_csv(records, folder / "pixel-size-records.csv", _RECORD_COLUMNS + ("demosaic",)),
-        write_csv(rows, folder / "pixel-size-summary.csv", ("lux", "pitch_um", "mean", "std", "n", "best_pitch_um")),
+        write_csv(rows, folder / "pixel-size-summary.csv", ("lux", "pitch_um", "mean", "std", "n", "snr_db", "mtf50_cyc_per_mm",
+                                                            "best_pitch_um")),
         save_png(figure(summary), folder / "pixel-size.png"),
     ]
