@@ -28,6 +28,13 @@ def test_small_grid_in_process_writes_csv_plot_table_and_the_optimum_moves_with_
     assert err[10, 4] < err[10, 1.4] and err[1000, 1.4] < err[1000, 4]
     assert err[10, 1.4] > err[1000, 1.4]  # less light, more noise, more error
     assert {float(r["best_pitch_um"]) for r in rows if float(r["lux"]) == 10} == {4.0}
+    # the two sides of the trade: bigger pixels, more SNR and less MTF50 (cycles/mm at the sensor)
+    snr = {(float(r["lux"]), float(r["pitch_um"])): float(r["snr_db"]) for r in rows}
+    mtf = {float(r["pitch_um"]): float(r["mtf50_cyc_per_mm"]) for r in rows}
+    assert snr[10, 4] > snr[10, 1.4] + 6 and snr[1000, 1.4] > snr[10, 1.4] + 10
+    assert mtf[1.4] > 1.5 * mtf[4]
+    # 4 um pixels sample at 125 cycles/mm: the MTF50 of the pixel aperture, lens and bilinear demosaic lies below Nyquist
+    assert mtf[4] < 125
     assert (out / "pixel-size.png").stat().st_size > 1000 and (out / "pixel-size-records.csv").exists()
     assert "best pitch: 10 lux -> 4 um, 1000 lux -> 1.4 um" in text
 
