@@ -223,6 +223,7 @@ def create_app(scene=None):
     tabs = pn.Tabs(results_tab, scene_tab, camera_tab, ("Image quality", QualityView(state).panel()),
                    compare_tab(state), ("Experiments", _experiments_tab()),
                    css_classes=["camsim-tabs"], dynamic=False)
+    tabs.append(__import__("app.physical", fromlist=["PhysicalView"]).PhysicalView(state).panel())  # Optics & sensor
     header = pn.pane.Markdown("## camsim explorer: a camera design on a hyperspectral scene", margin=(0, 10))
     page = pn.Column(
         header, alert, notice,

@@ -20,6 +20,9 @@ import numpy as np
 from ..datasets.sensors import Sensors
 from ..errors import ParameterError
 from ..image import check_tile
+from ..optics.diffraction import MIN_F_NUMBER
+from ..optics.stage import check_optics_fields, optics as optics_stage, optics_active
+from ..simulation.electrons import check_sensor_fields
 from ..simulation import DEFAULT_ARCHITECTURE
 from ..spectra import Spectrum
 
@@ -47,7 +50,7 @@ class Camera:
     focal_length : float
         mm.
     pixel_size : (height, width)
-        m, for quantal cameras.
+        Pixel pitch, m (quantal cameras: the pixel area is their product).
     cal_exposure, cal_f_stop : float
         Conditions of the sensitivity calibration (s, f-number).
     exposure, f_stop : float
@@ -56,10 +59,11 @@ class Camera:
         m from the scene; ``None`` keeps the scene's own distance.
     noise_model : "gaussian", "photon" or "gaussian-range"
         Additive Gaussian noise in digital units (the chapter's model, the
-        original's ``gaussianIID``), photon shot noise plus Gaussian read
-        noise for quantal sensors, or Gaussian noise in fractions of the
-        image's range (the original's ``gaussianIIDpercent``; see
-        :func:`~camsim_core.simulation.noise.noise`).
+        original's ``gaussianIID``), the electron-level sensor of quantal
+        cameras (photon shot noise, read noise and the EMVA 1288 fields
+        below, :mod:`camsim_core.simulation.electrons`), or Gaussian noise
+        in fractions of the image's range (the original's
+        ``gaussianIIDpercent``; see :func:`~camsim_core.simulation.noise.noise`).
     noise_mean, noise_sigma : float
         Digital units (fractions of the image's range for
         "gaussian-range"). ``noise_sigma == 0`` switches the noise stage off.
@@ -71,9 +75,36 @@ class Camera:
         subtracted by processing (``demosaic``, ``render``) as a raw
         converter does. The Kodak DCS-200's real raws read about 15 DU.
     read_noise : float
-        Electrons (photon model).
+        Temporal dark noise sigma_d, e- rms (photon model).
     electrons_per_dn : float
-        Conversion gain of a quantal sensor, electrons per digital unit.
+        Inverse conversion gain of a quantal sensor at unit analog gain, e- per DN.
+    optics : "none" or "diffraction"
+        "diffraction": the optics stage blurs each spectral plane by the
+        diffraction-limited OTF of the f-number at its wavelength
+        (:mod:`camsim_core.optics`). "none" (default): no optical blur.
+    defocus : float
+        Focus error, dioptres (1/m); needs ``optics="diffraction"``. 0 = in focus.
+    lens_transmittance : Spectrum or None
+        Lens transmittance, fraction per wavelength; None = 1 (a perfect lens).
+    relative_illumination : bool
+        Apply the cos^4 fall-off of irradiance with the field angle.
+    vignetting : float
+        Extra fraction of light lost at the corner of the pixel array
+        (growing with the square of the image height); 0 = none.
+    fill_factor : float
+        Fraction (0, 1] of the pixel area that collects light (quantal sensors).
+    full_well : float or None
+        Saturation capacity mu_e.sat, e-; None = no saturation (photon model).
+    dark_current : float
+        Dark current mu_I, e-/s (photon model; its shot noise included).
+    dsnu : float
+        Dark signal non-uniformity DSNU_1288, e- rms (fixed pattern, photon model).
+    prnu : float
+        Photo response non-uniformity PRNU_1288, fraction rms (0.01 = 1 %; fixed pattern, photon model).
+    analog_gain : float
+        Gain before the ADC (dimensionless): system gain K = analog_gain / electrons_per_dn DN/e-.
+    pattern_seed : int
+        Seed of the DSNU and PRNU patterns: the sensor's identity, the same in every frame.
     bits : int or None
         1-32; ``None`` for no quantization.
     nonlinearity : None, float or array
@@ -112,6 +143,18 @@ class Camera:
     nonlinearity: object = None
     blur_sigma: object = 0.0
     seed: int | None = None
+    optics: str = "none"
+    defocus: float = 0.0
+    lens_transmittance: Spectrum | None = None
+    relative_illumination: bool = False
+    vignetting: float = 0.0
+    fill_factor: float = 1.0
+    full_well: float | None = None
+    dark_current: float = 0.0
+    dsnu: float = 0.0
+    prnu: float = 0.0
+    analog_gain: float = 1.0
+    pattern_seed: int = 0
     architecture: tuple = DEFAULT_ARCHITECTURE
     comments: str = ""
 
@@ -123,6 +166,12 @@ class Camera:
             v = getattr(self, field_name)
             if not (isinstance(v, (int, float, np.floating, np.integer)) and np.isfinite(v) and v > 0):
                 raise ParameterError(field_name, f"must be a positive number, got {v!r}")
+        if self.f_stop < MIN_F_NUMBER:
+            raise ParameterError("f_stop", f"must be an f-number >= {MIN_F_NUMBER} (numerical aperture <= 1), got {self.f_stop!r}")
+        ps = tuple(float(v) for v in np.broadcast_to(np.asarray(self.pixel_size, float), (2,)))
+        if not all(np.isfinite(v) and v > 0 for v in ps):
+            raise ParameterError("pixel_size", f"the pixel pitch must be positive metres (height, width), got {self.pixel_size!r}")
+        object.__setattr__(self, "pixel_size", ps)
         if self.distance is not None and not (np.isfinite(self.distance) and self.distance > 0):
             raise ParameterError("distance", f"must be a positive number of metres or None, got {self.distance!r}")
         for field_name in ("height", "width"):
@@ -162,7 +211,12 @@ class Camera:
             raise ParameterError("blur_sigma", f"must be a non-negative number of pixels or a Spectrum, got {self.blur_sigma!r}")
         if not self.architecture or not all(callable(s) for s in self.architecture):
             raise ParameterError("architecture", "must be a non-empty sequence of stage(camera, image) functions")
-        object.__setattr__(self, "architecture", tuple(self.architecture))
+        check_optics_fields(self)
+        check_sensor_fields(self)
+        architecture = tuple(self.architecture)
+        if optics_active(self) and optics_stage not in architecture:
+            architecture = (optics_stage,) + architecture  # the lens acts on the spectral planes, first
+        object.__setattr__(self, "architecture", architecture)
 
     def replace(self, **changes):
         """A validated copy with ``changes`` (same as ``dataclasses.replace``)."""
@@ -193,6 +247,13 @@ class Camera:
             "distance_m": self.distance,
             "noise": {"model": self.noise_model, "mean": self.noise_mean, "sigma": self.noise_sigma},
             "black_level_du": self.black_level,
+            "optics": {"model": self.optics, "defocus_dioptres": self.defocus,
+                       "lens_transmittance": None if self.lens_transmittance is None else "spectrum",
+                       "relative_illumination_cos4": bool(self.relative_illumination), "vignetting": self.vignetting},
+            "sensor": {"pixel_pitch_um": [v * 1e6 for v in self.pixel_size], "fill_factor": self.fill_factor,
+                       "full_well_e": self.full_well, "read_noise_e": self.read_noise, "dark_current_e_per_s": self.dark_current,
+                       "dsnu_e": self.dsnu, "prnu_fraction": self.prnu, "electrons_per_dn": self.electrons_per_dn,
+                       "analog_gain": self.analog_gain, "pattern_seed": self.pattern_seed},
             "bits": self.bits,
             "architecture": [getattr(s, "__name__", repr(s)) for s in self.architecture],
             "comments": self.comments,

@@ -23,6 +23,7 @@ from ..io.simtoolbox import group_numbers, read_tagged
 from ..simulation import DEFAULT_ARCHITECTURE, FOUR_SENSOR_GRID, bayer, digitize, mosaic, noise, optical_blur, resample, sensor_responses
 from ..spectra import sampling_wavelengths
 from .camera import Camera
+from .physical import PHYSICAL_NAMES, physical_camera
 
 __all__ = ["load_camera", "read_scam", "CAMERA_NAMES", "camera_preset"]
 
@@ -34,6 +35,8 @@ CAMERA_NAMES = (
     "cie1931",
     "gaussian-3",
     "gaussian-4",
+    "phone-1.4um",
+    "imx174",
 )
 
 #: The original simulator's stage functions (``#Sim#Alg`` names, case-insensitive) and camsim's
@@ -201,9 +204,13 @@ def camera_preset(name, **changes):
     (see :func:`~camsim_core.datasets.sensors.common_scale`; XYZ with one
     factor for all three so that its ratios stay colorimetric).
     ``gaussian-3`` / ``gaussian-4`` are the section 5 Gaussian sensors (27 nm
-    standard deviation) on a Bayer tile / the 2 x 2 grid.
+    standard deviation) on a Bayer tile / the 2 x 2 grid. ``phone-1.4um``
+    and ``imx174`` are physical cameras from published sensor sheets
+    (:mod:`camsim_core.camera.physical`), with their own geometry.
     """
     key = name.lower()
+    if key in PHYSICAL_NAMES:
+        return physical_camera(key, **changes)
     base = _dcs200_geometry(ir=key != "kodak-dcs200")
     if key in ("kodak-dcs200", "kodak-dcs200-ir"):
         cam = base.replace(name=key)

@@ -1,4 +1,5 @@
-"""``camsim experiment sensors|mosaic``: the chapter's section 5 experiments (Figure 1.14, Table 1.16).
+"""``camsim experiment sensors|mosaic|pixel-size``: the chapter's section 5 experiments (Figure 1.14,
+Table 1.16) and its section 6 question (pixel size for a fixed sensor).
 
 Each configuration (scene x design x noise sigma x seed) is one task on
 Dask: a local cluster of ``--workers`` single-thread workers by default,
@@ -16,6 +17,9 @@ from pathlib import Path
 from ..errors import ParameterError
 
 __all__ = ["register", "run"]
+
+PITCHES_DEFAULT = (1.0, 1.2, 1.4, 1.75, 2.0, 2.4, 2.8, 3.45, 4.0, 4.8, 5.6)  # camsim_core.experiments.pixel_size.PITCHES_UM
+LUX_DEFAULT = (5.0, 20.0, 100.0, 1000.0, 10000.0)  # ... .LUX (not imported here: the CLI starts fast)
 
 
 def _distance(text):
@@ -49,8 +53,8 @@ def _common(p, default_out):
 
 
 def register(subparsers):
-    p = subparsers.add_parser("experiment", help="run the chapter's section 5 experiments",
-                              description="Run the chapter's section 5 experiments on Dask: 'sensors' (Figure 1.14) and 'mosaic' (Table 1.16).")
+    p = subparsers.add_parser("experiment", help="run the chapter's section 5 experiments and its section 6 pixel-size question",
+                              description="Run the chapter's experiments on Dask: 'sensors' (Figure 1.14), 'mosaic' (Table 1.16) and 'pixel-size' (section 6).")
     sub = p.add_subparsers(dest="experiment", metavar="EXPERIMENT", required=True)
 
     s = sub.add_parser("sensors", help="Figure 1.14: S-CIELAB error against the cone/DCS-200 mixture alpha",
@@ -73,10 +77,67 @@ def register(subparsers):
     m.add_argument("--demosaic", default="bayesian", help="demosaicing method (default: bayesian)")
     m.set_defaults(func=run)
 
+    x = sub.add_parser("pixel-size", help="section 6: S-CIELAB error against pixel pitch for a fixed 4.8 x 3.6 mm sensor, at several light levels",
+                       description="A 4.8 x 3.6 mm sensor behind a 4 mm f/2.8 diffraction-limited lens, pixel pitch from 1 to 5.6 um "
+                       "(full well, fill factor and dark current scaling with the pixel), a scene of fine coloured gratings at several "
+                       "illuminances; bilinear demosaicing, a least-squares colour matrix, mean S-CIELAB error against the ideal image. "
+                       "Writes pixel-size-records.csv, pixel-size-summary.csv and pixel-size.png.")
+    x.add_argument("--pitches", default=",".join(f"{v:g}" for v in PITCHES_DEFAULT),
+                   help="pixel pitches, um: list or START:STOP:COUNT (default: %(default)s)")
+    x.add_argument("--lux", default=",".join(f"{v:g}" for v in LUX_DEFAULT), help="scene illuminances, lux (default: %(default)s)")
+    x.add_argument("--seeds", type=int, default=1, help="noise seeds per configuration (default: 1)")
+    x.add_argument("--demosaic", default="bilinear", help="demosaicing method for the Bayer tile (default: bilinear)")
+    x.add_argument("--out", default="experiments/pixel-size", help="output folder, created if missing (default: experiments/pixel-size)")
+    x.add_argument("--workers", type=int, default=None,
+                   help=f"local Dask cluster of N single-thread workers (default: the CPU count, {os.cpu_count()}); 0 = no Dask, run in this process")
+    x.add_argument("--scheduler", metavar="ADDRESS", help="use an existing Dask scheduler, e.g. tcp://host:8786")
+    x.add_argument("--no-progress", action="store_true", help="no progress bar")
+    x.set_defaults(func=run)
+
+
+def _workers(args):
+    if args.workers is not None and args.workers < 0:
+        raise ParameterError("--workers", f"must be >= 0, got {args.workers}")
+    if args.scheduler or args.workers == 0:
+        return None
+    return args.workers or os.cpu_count() or 1
+
+
+def _out(args):
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ParameterError("--out", f"{out} exists and is not a folder")
+    return out
+
+
+def run_pixel_size(args):
+    from ..experiments import grid, pixel_size
+    from ..experiments.runner import run_tasks
+
+    workers, out = _workers(args), _out(args)
+    t0 = time.perf_counter()
+    configs = pixel_size.configurations(grid.parse_values(args.pitches, "--pitches"), grid.parse_values(args.lux, "--lux"),
+                                        args.seeds, demosaic=args.demosaic)
+    where = f"scheduler {args.scheduler}" if args.scheduler else (f"local Dask cluster of {workers} worker(s)" if workers else "this process")
+    print(f"camsim experiment pixel-size: {len(configs)} tasks on {where}")
+    records = run_tasks(pixel_size.evaluate, configs, workers=workers, scheduler=args.scheduler,
+                        progress=False if args.no_progress else None, desc="pixel-size")
+    out.mkdir(parents=True, exist_ok=True)
+    paths = pixel_size.write_outputs(records, out)
+    summary = pixel_size.summarize(records)
+    print(pixel_size.table(summary))
+    print("best pitch: " + ", ".join(f"{lux:g} lux -> {p:g} um" for lux, p in pixel_size.optimum(summary).items())
+          + f"; wall time {time.perf_counter() - t0:.1f} s")
+    for p in paths:
+        print(f"wrote {p}")
+    return 0
+
 
 def run(args):
     from ..experiments import grid, mosaic, sensors
 
+    if args.experiment == "pixel-size":
+        return run_pixel_size(args)
     sigmas = grid.parse_values(args.sigmas, "--sigmas")
     distance = _distance(args.distance)
     if args.workers is not None and args.workers < 0:

@@ -4,14 +4,16 @@
   against alpha for the baseline and illuminant-based renderings;
 * :mod:`.mosaic` - three sensors on a Bayer tile versus four on a 2 x 2 grid
   (Table 1.16);
+* :mod:`.pixel_size` - section 6's question: S-CIELAB error against pixel
+  pitch for a fixed sensor size, at several light levels;
 * :mod:`.grid` - validation of the parameter grid, the common exposure, task seeds;
 * :mod:`.runner` - in-process loop, local Dask cluster or existing scheduler;
 * :mod:`.results` - mean and std over seeds, CSV, text tables;
 * :mod:`.plot` - the two-panel figure (matplotlib, Agg).
 
-Command line: ``camsim experiment sensors`` and ``camsim experiment mosaic``.
+Command line: ``camsim experiment sensors``, ``camsim experiment mosaic`` and ``camsim experiment pixel-size``.
 """
 
-from . import grid, mosaic, results, runner, sensors  # plot (matplotlib) is imported on use
+from . import grid, mosaic, pixel_size, results, runner, sensors  # plot (matplotlib) is imported on use
 
-__all__ = ["grid", "mosaic", "results", "runner", "sensors"]
+__all__ = ["grid", "mosaic", "pixel_size", "results", "runner", "sensors"]

@@ -27,6 +27,11 @@ def ideal_camera(camera):
         noise_sigma=0.0,
         black_level=0.0,
         read_noise=0.0,
+        full_well=None,
+        dark_current=0.0,
+        dsnu=0.0,
+        prnu=0.0,
+        analog_gain=1.0,
         nonlinearity=None,
         bits=cam.bits if cam.bits is not None else 8,
     )

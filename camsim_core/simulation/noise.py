@@ -5,20 +5,25 @@ from __future__ import annotations
 import numpy as np
 
 from ._stage import stage
+from .electrons import electron_sensor
 
 __all__ = ["noise"]
 
 
-@stage("noise_model", "noise_mean", "noise_sigma", "read_noise", "electrons_per_dn", "seed")
+@stage("noise_model", "noise_mean", "noise_sigma", "read_noise", "electrons_per_dn", "seed", "full_well", "dark_current",
+       "dsnu", "prnu", "analog_gain", "pattern_seed", "exposure")
 def noise(camera, image):
     """Add noise from a ``numpy.random.Generator`` seeded with ``camera.seed``.
 
     * "gaussian" (the chapter's model): independent Gaussian noise of mean
       ``noise_mean`` and standard deviation ``noise_sigma``, digital units.
-    * "photon": the mean signal in electrons (``data x electrons_per_dn``)
-      is replaced by a Poisson draw (shot noise), Gaussian read noise of
-      ``read_noise`` electrons is added, and the result is converted back to
-      digital units; ``noise_mean`` is added as an offset.
+    * "photon": the electron-level sensor
+      (:func:`~camsim_core.simulation.electrons.electron_sensor`): the mean
+      signal in electrons (``data x electrons_per_dn``) is replaced by a
+      Poisson draw (shot noise), Gaussian read noise of ``read_noise``
+      electrons is added, with PRNU, dark current, DSNU and full-well
+      clipping when set, and the result is converted to digital units by
+      the system gain; ``noise_mean`` is added as an offset.
 
     * "gaussian-range" (SimToolbox's ``gaussianIIDpercent``): the image is
       scaled so that its own minimum and maximum map to 0 and 1, Gaussian
@@ -30,20 +35,14 @@ def noise(camera, image):
     ``noise_sigma == 0`` (and, for the photon model, ``read_noise == 0``
     with no shot noise wanted) means a noiseless camera: the stage does nothing.
     """
-    rng = np.random.default_rng(camera.seed)
-    data = np.asarray(image.data, float)
     if camera.noise_model == "gaussian-range":
-        return _range_noise(camera, image, data, rng)
+        return _range_noise(camera, image, np.asarray(image.data, float), np.random.default_rng(camera.seed))
     if camera.noise_model == "photon":
-        electrons = np.clip(data, 0, None) * camera.electrons_per_dn
-        noisy = rng.poisson(electrons).astype(float)
-        if camera.read_noise > 0:
-            noisy += rng.normal(0.0, camera.read_noise, size=data.shape)
-        out = noisy / camera.electrons_per_dn + camera.noise_mean
-        sigma = float(np.sqrt(max(camera.read_noise, 0) ** 2 + electrons.mean()) / camera.electrons_per_dn)
-        return image.then("noise", data=out, noise_sigma=sigma)
+        return electron_sensor(camera, image)
     if camera.noise_sigma == 0:
         return image
+    rng = np.random.default_rng(camera.seed)
+    data = np.asarray(image.data, float)
     out = data + camera.noise_mean + rng.normal(0.0, camera.noise_sigma, size=data.shape)
     return image.then("noise", data=out, noise_sigma=float(np.hypot(image.noise_sigma, camera.noise_sigma)))
 

@@ -27,10 +27,12 @@ def quantal_gain(camera):
     vignetting or transmission loss): the focal length cancels, because the
     scene patch one pixel sees grows as f^2 while the aperture's solid angle
     shrinks as 1/f^2. Photons absorbed in the exposure t by a pixel of area A
-    with quantum efficiency q: q E A t lambda / (h c). Divided by the
-    conversion gain (electrons per digital unit).
+    with quantum efficiency q: q E A t lambda / (h c), A the pixel area
+    times its fill factor. Divided by the conversion gain (electrons per
+    digital unit). Magnification, transmittance and relative illumination
+    come from the optics stage, when the camera has one.
     """
-    area = float(camera.pixel_size[0]) * float(camera.pixel_size[1])
+    area = float(camera.pixel_size[0]) * float(camera.pixel_size[1]) * float(camera.fill_factor)
     return np.pi / (4.0 * camera.f_stop**2) * area * camera.exposure / camera.electrons_per_dn
 
 
@@ -47,7 +49,7 @@ def sensor_weights(camera, wavelengths):
     return np.ascontiguousarray((t * gain).T), gain
 
 
-@stage("sensors", "exposure", "f_stop", "cal_exposure", "cal_f_stop", "pixel_size", "electrons_per_dn")
+@stage("sensors", "exposure", "f_stop", "cal_exposure", "cal_f_stop", "pixel_size", "electrons_per_dn", "fill_factor")
 def sensor_responses(camera, image):
     """Weighted sums of the spectral planes, one per sensor class, scaled for exposure and f-stop.
 

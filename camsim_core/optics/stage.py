@@ -1,0 +1,191 @@
+"""The optics stage: scene radiance to the light that reaches the sensor, per spectral plane.
+
+An optional stage of the architecture, before ``sensor_responses`` (it
+needs the spectral planes). It does nothing when the camera asks for no
+optics (``optics="none"``, no transmittance, no relative illumination, no
+vignetting): the chapter's five-stage camera is unchanged by default. A
+camera that asks for any of them gets this stage at the head of its
+architecture (see :class:`~camsim_core.camera.Camera`).
+
+What it does, in this order:
+
+1. **Blur** (``optics="diffraction"``): each plane is multiplied, in the
+   frequency domain, by the diffraction-limited OTF of the camera's pupil
+   at that plane's wavelength (with ``defocus`` in dioptres: the defocused
+   pupil's OTF), on the frequency grid of the plane's own sampling at the
+   sensor (:func:`~camsim_core.optics.irradiance.sample_pitch`). Blue planes
+   get a higher cutoff than red ones; a larger f-number a lower one. The
+   planes are padded by mirror reflection (no wrap-around), and the OTF is
+   1 at zero frequency, so the blur conserves the image's energy.
+2. **Photometry**: the lens transmittance T(lambda), the cos^4 relative
+   illumination at each pixel's field angle and the optional vignetting.
+   For quantal sensors also the (1 + m)^-2 of the working f-number: their
+   sensor stage applies pi / (4 N^2) (see
+   :func:`~camsim_core.simulation.sensor.quantal_gain`), so that the sensor
+   receives E = pi L T cos^4 V / (4 N^2 (1 + m)^2) W/m^2 per band.
+   Calibrated ("Watts") sensitivities already include their lens's absolute
+   throughput at calibration, so only the relative factors apply.
+
+The data stay in radiance-equivalent units (W/sr/m^2 per band): the light
+that, through an ideal lens of the same f-number, would give the same
+irradiance. :func:`sensor_irradiance` converts to W/m^2.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+import scipy.fft as sfft
+
+from ..errors import ParameterError
+from ..simulation._stage import stage
+from ..spectra import Spectrum
+from .diffraction import defocus_otf, defocus_waves, diffraction_mtf
+from .irradiance import cos4, field_angles, image_distance, image_irradiance, magnification, sample_pitch
+
+__all__ = ["optics", "optics_active", "blur_planes", "plane_otfs", "relative_illumination_map", "sensor_irradiance", "OPTICS"]
+
+#: Values of ``Camera.optics``.
+OPTICS = ("none", "diffraction")
+
+
+def optics_active(camera):
+    """Whether the camera asks the optics stage to do anything."""
+    return (camera.optics != "none" or camera.lens_transmittance is not None or bool(camera.relative_illumination)
+            or camera.vignetting > 0)
+
+
+def plane_otfs(shape, pitch, wavelengths, f_number, defocus=None):
+    """(N, H, W//2 + 1) OTFs on the real-FFT grid of an (H, W) plane sampled every ``pitch`` (dy, dx) m.
+
+    ``defocus``: W020 in waves per wavelength (array), or None. Cached (a
+    pure function of its arguments; read-only result): moving another
+    parameter of the camera does not recompute them.
+    """
+    key = (tuple(int(v) for v in shape), tuple(float(v) for v in pitch), tuple(np.asarray(wavelengths, float).tolist()),
+           float(f_number), None if defocus is None else tuple(np.asarray(defocus, float).tolist()))
+    return _plane_otfs(*key)
+
+
+@lru_cache(maxsize=8)
+def _plane_otfs(shape, pitch, wavelengths, f_number, defocus):
+    out = _compute_otfs(shape, pitch, wavelengths, f_number, None if defocus is None else np.asarray(defocus))
+    out.flags.writeable = False
+    return out
+
+
+def _compute_otfs(shape, pitch, wavelengths, f_number, defocus):
+    h, w = shape
+    fy = sfft.fftfreq(h, d=pitch[0] * 1e3)  # cycles/mm
+    fx = sfft.rfftfreq(w, d=pitch[1] * 1e3)
+    rho = np.hypot(fy[:, None], fx[None, :])
+    wl = np.asarray(wavelengths, float)
+    if defocus is None or not np.any(defocus):
+        return np.stack([diffraction_mtf(rho, lam, f_number) for lam in wl])
+    out = np.empty((wl.size,) + rho.shape)
+    for k in range(wl.size):
+        # a radial table, fine enough for the OTF's oscillation (period 1 / (4 w) in v), interpolated onto the grid
+        table_v = np.linspace(0.0, 1.0, int(max(1025, 64 * abs(defocus[k]))))
+        out[k] = np.interp(rho * (wl[k] * 1e-6) * f_number, table_v, defocus_otf(table_v, defocus[k]), right=0.0)
+    return out
+
+
+def _margin(n, pitch_mm, wavelength_mm, f_number, waves):
+    # the PSF's reach: ~8 lambda N for the Airy pattern (>99 % of the energy), plus the geometric blur circle
+    reach = (8.0 + 8.0 * abs(waves)) * wavelength_mm * f_number
+    return int(min(n, np.ceil(reach / pitch_mm) + 2))
+
+
+def blur_planes(data, wavelengths, pitch, f_number, defocus=None):
+    """Each plane of ``data`` (H, W, N) blurred by its wavelength's OTF, in the frequency domain.
+
+    ``pitch`` (dy, dx) is the sample spacing at the sensor in metres,
+    ``wavelengths`` nm, ``defocus`` W020 in waves per plane (or None).
+    Mirror padding against wrap-around; sizes rounded up to fast FFT lengths.
+    """
+    data = np.asarray(data, float)
+    h, w, n = data.shape
+    wl = np.asarray(wavelengths, float)
+    wmax = float(np.max(np.abs(defocus))) if defocus is not None else 0.0
+    my = _margin(h, pitch[0] * 1e3, wl.max() * 1e-6, f_number, wmax)
+    mx = _margin(w, pitch[1] * 1e3, wl.max() * 1e-6, f_number, wmax)
+    hp = sfft.next_fast_len(h + 2 * my, real=True)
+    wp = sfft.next_fast_len(w + 2 * mx, real=True)
+    planes = np.pad(np.moveaxis(data, 2, 0), ((0, 0), (my, hp - h - my), (mx, wp - w - mx)), mode="symmetric")
+    otf = plane_otfs((hp, wp), pitch, wl, f_number, defocus)
+    spectrum = sfft.rfft2(planes, axes=(1, 2), overwrite_x=True)
+    spectrum *= otf
+    out = sfft.irfft2(spectrum, s=(hp, wp), axes=(1, 2), overwrite_x=True)[:, my : my + h, mx : mx + w]
+    return np.ascontiguousarray(np.moveaxis(out, 0, 2))
+
+
+def relative_illumination_map(camera, image):
+    """(H, W) factor cos^4(theta) x vignetting at each pixel of ``image`` (1 where switched off)."""
+    h, w = image.data.shape[:2]
+    d = camera.distance if camera.distance is not None else image.distance
+    theta = field_angles((h, w), image.angular_resolution, image.distance, d)
+    ri = cos4(theta) if camera.relative_illumination else np.ones((h, w))
+    if camera.vignetting > 0:
+        s = image_distance(camera.focal_length, d)
+        r = np.tan(theta) * s  # image height, m
+        corner = 0.5 * np.hypot(camera.height * camera.pixel_size[0], camera.width * camera.pixel_size[1])
+        ri = ri * np.clip(1.0 - camera.vignetting * (r / corner) ** 2, 0.0, None)
+    return ri
+
+
+@stage("optics", "defocus", "f_stop", "focal_length", "distance", "lens_transmittance", "relative_illumination",
+       "vignetting", "height", "width", "pixel_size", "sensors")
+def optics(camera, image):
+    """The lens: diffraction (and defocus) blur per wavelength, transmittance, relative illumination.
+
+    See the module docstring. Needs spectral planes; returns them in
+    radiance-equivalent units. A camera without optics: the image passes unchanged.
+    """
+    if not optics_active(camera):
+        return image
+    if image.space != "spectral" or image.mosaiced:
+        raise ParameterError("optics", f"acts on the spectral planes of the scene: put it before sensor_responses (got a {image.space} image)")
+    d = camera.distance if camera.distance is not None else image.distance
+    data = np.asarray(image.data, float)
+    squeeze = data.ndim == 2
+    if squeeze:
+        data = data[:, :, None]
+    wl = np.asarray(image.wavelengths, float)
+    if camera.optics == "diffraction":
+        pitch = sample_pitch(image.angular_resolution, image.distance, d, camera.focal_length)
+        waves = defocus_waves(camera.defocus, wl, camera.f_stop, camera.focal_length) if camera.defocus else None
+        data = blur_planes(data, wl, pitch, camera.f_stop, waves)
+    factor = 1.0
+    if camera.lens_transmittance is not None:
+        factor = camera.lens_transmittance.on(wl)[None, None, :]
+    if camera.relative_illumination or camera.vignetting > 0:
+        factor = factor * relative_illumination_map(camera, image)[:, :, None]
+    if camera.sensors.unit == "Quanta":
+        factor = factor / (1.0 + magnification(camera.focal_length, d)) ** 2
+    if not (np.isscalar(factor) and factor == 1.0):
+        data = data * factor
+    if squeeze:
+        data = data[:, :, 0]
+    return image.then("optics", data=data)
+
+
+def sensor_irradiance(camera, image):
+    """Irradiance at the sensor (W/m^2 per band) of the optics stage's output: pi L' / (4 N^2)."""
+    return image_irradiance(image.data, camera.f_stop)
+
+
+def check_optics_fields(camera):
+    """Validate the optics fields of a camera (called by ``Camera.__post_init__``)."""
+    if camera.optics not in OPTICS:
+        raise ParameterError("optics", f"must be one of {OPTICS}, got {camera.optics!r}")
+    if not (np.isfinite(camera.defocus)):
+        raise ParameterError("defocus", f"must be a finite number of dioptres, got {camera.defocus!r}")
+    if camera.defocus != 0 and camera.optics != "diffraction":
+        raise ParameterError("defocus", 'acts on the pupil: it needs optics="diffraction"')
+    if camera.lens_transmittance is not None:
+        t = camera.lens_transmittance
+        if not isinstance(t, Spectrum) or np.any(t.values < 0) or np.any(t.values > 1):
+            raise ParameterError("lens_transmittance", "must be a Spectrum of fractions in [0, 1], or None")
+    if not (np.isfinite(camera.vignetting) and 0 <= camera.vignetting <= 1):
+        raise ParameterError("vignetting", f"must be a fraction of light lost at the sensor corner in [0, 1], got {camera.vignetting!r}")
