@@ -263,3 +263,21 @@ def test_readers_honour_a_tighter_size_limit(tmp_path, cube):
         read_envi(tmp_path / "c.hdr", max_values=100)
     with pytest.raises(FileFormatError, match="more than the 100 allowed"):
         read_mat(tmp_path / "c.mat", max_values=100)
+
+
+def test_band_folder_json_of_any_name_and_envi_micrometers_without_units(tmp_path, cube):
+    folder = tmp_path / "bands"
+    folder.mkdir()
+    many = np.concatenate([cube] * 3, axis=2)  # 12 bands: b2.png must come before b10.png
+    wls = np.arange(400.0, 520.0, 10.0)
+    for k in range(wls.size):
+        Image.fromarray((many[:, :, k] * 10000).astype(np.uint16)).save(folder / f"b{k}.png")
+    (folder / "meta.json").write_text(json.dumps({"bands": list(wls)}))
+    scene = _load_quiet(folder)
+    np.testing.assert_array_equal(scene.wavelengths, wls)
+    np.testing.assert_allclose(scene.data, (many * 10000).astype(np.uint16) / 65535.0)
+    hdr = tmp_path / "um.hdr"
+    envi.save_image(str(hdr), cube, ext=".img", metadata={"wavelength": list(WLS / 1000)})
+    scene = _load_quiet(hdr)
+    np.testing.assert_allclose(scene.wavelengths, WLS)
+    assert any("micrometers" in n for n in scene.notices)
