@@ -281,3 +281,18 @@ def test_band_folder_json_of_any_name_and_envi_micrometers_without_units(tmp_pat
     scene = _load_quiet(hdr)
     np.testing.assert_allclose(scene.wavelengths, WLS)
     assert any("micrometers" in n for n in scene.notices)
+
+
+def test_mat_v73_isetcam_scene_struct(tmp_path, rng):
+    wls = np.arange(400.0, 701.0, 10.0)
+    photons = rng.uniform(1e15, 1e16, size=(5, 8, wls.size))
+    path = tmp_path / "iset73.mat"
+    with _matlab73(path) as f:
+        s = f.create_group("scene")
+        s.create_group("data")["photons"] = photons.T  # MATLAB's column-major storage
+        s.create_group("spectrum")["wave"] = wls[:, None]
+        s["wAngular"] = np.array([[8.0]])
+        s["distance"] = np.array([[0.5]])
+    scene = cs.load_scene(path)
+    np.testing.assert_allclose(scene.data, _photons_to_watts_per_band(photons, wls, 10.0), rtol=1e-12)
+    assert scene.angular_resolution == (1.0, 1.0) and scene.distance == 0.5
