@@ -101,12 +101,16 @@ def test_mat_v5_icvl_and_arad_round_trip(tmp_path, cube, var):
     assert any("no absolute unit" in n for n in scene.notices)
 
 
-def test_mat_v5_harvard_gets_its_wavelengths(tmp_path, rng):
+def test_mat_v5_harvard_and_arad_without_bands_get_their_wavelengths(tmp_path, rng):
     ref = rng.uniform(0, 1, size=(4, 3, 31))
     savemat(tmp_path / "img1.mat", {"ref": ref, "lbl": np.ones((4, 3))})
     scene = _load_quiet(tmp_path / "img1.mat")
     np.testing.assert_array_equal(scene.data, ref)
     np.testing.assert_array_equal(scene.wavelengths, 420 + 10 * np.arange(31))
+    savemat(tmp_path / "arad.mat", {"cube": ref})
+    scene = _load_quiet(tmp_path / "arad.mat")
+    np.testing.assert_array_equal(scene.wavelengths, 400 + 10 * np.arange(31))
+    assert any("400-700 nm" in n for n in scene.notices)
 
 
 def _matlab73(path):
