@@ -13,6 +13,7 @@ from __future__ import annotations
 import holoviews as hv
 import numpy as np
 import panel as pn
+from holoviews import streams
 
 from camsim_core.errors import CamsimError
 from camsim_core.metrics.report import default_measures, measure_images
@@ -32,7 +33,11 @@ def measures_for(scene_name, result):
     return tuple(names)
 
 
-def _mtf_plot(mtf):
+def _mtf_plot(data):
+    """Overlay of the MTF curves (luminance bold) with MTF50 (red, dashed) and Nyquist (dotted)."""
+    mtf = data
+    if not mtf:
+        return hv.Overlay([hv.Curve([], "Frequency (cycles/pixel)", "MTF")]).opts(title="Slanted-edge MTF")
     curves = []
     for name, v in mtf.items():
         style = dict(line_width=3, color="black") if name == "luminance" else dict(line_width=1.5)
@@ -41,9 +46,8 @@ def _mtf_plot(mtf):
     marks = [hv.VLine(0.5).opts(color="gray", line_dash="dotted")]
     if np.isfinite(lum["mtf50"]):
         marks.append(hv.VLine(lum["mtf50"]).opts(color="red", line_dash="dashed"))
-    return hv.Overlay(curves + marks).opts(
-        frame_width=420, frame_height=240, xlim=(0, 1), ylim=(0, 1.1), legend_position="top_right",
-        title=f"Slanted-edge MTF: MTF50 {lum['mtf50']:.3f} cycles/px (red), Nyquist dotted")
+    return hv.Overlay(curves + marks).opts(title=f"Slanted-edge MTF: MTF50 {lum['mtf50']:.3f} cycles/px (red), "
+                                                 "Nyquist dotted")
 
 
 def _snr_table(snr):
@@ -67,7 +71,10 @@ class QualityView:
     def __init__(self, state):
         self.state = state
         self.report = {}
-        self.mtf = pn.pane.HoloViews(hv.Curve([]), css_classes=["camsim-mtf"], linked_axes=False, visible=False)
+        self.mtf_pipe = streams.Pipe(data={})
+        plot = hv.DynamicMap(_mtf_plot, streams=[self.mtf_pipe]).opts(
+            hv.opts.Overlay(frame_width=420, frame_height=240, xlim=(0, 1), ylim=(0, 1.1), legend_position="top_right"))
+        self.mtf = pn.pane.HoloViews(plot, css_classes=["camsim-mtf"], linked_axes=False, visible=False)
         self.text = pn.pane.Markdown("", css_classes=["camsim-quality"], sizing_mode="stretch_width")
         state.param.watch(lambda e: self.update(), ["result"])
         self.update()
@@ -85,7 +92,7 @@ class QualityView:
             self.report, problem = {}, f"**Not measured**: {exc}"
         parts = [problem] if problem else []
         if "mtf" in self.report:
-            self.mtf.object = _mtf_plot(self.report["mtf"])
+            self.mtf_pipe.send(self.report["mtf"])  # new curves into the same plot
             lines = [f"| {k} | {v['mtf50']:.3f} | {v['mtf_nyquist']:.3f} |" for k, v in self.report["mtf"].items()]
             parts.append("| channel | MTF50 (cycles/px) | MTF at Nyquist |\n|---|---|---|\n" + "\n".join(lines))
         self.mtf.visible = "mtf" in self.report

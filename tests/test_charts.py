@@ -77,3 +77,14 @@ def test_chart_parameters_are_checked():
         uniform_scene(16, luminance=-1)
     with pytest.raises(ParameterError, match="chart"):
         cs.scene.chart("siemens-star")
+
+
+def test_charts_with_options_by_name():
+    s = cs.load_scene("slanted-edge:angle=10,contrast=2,size=64x96,illuminant=A")
+    assert s.shape[:2] == (64, 96) and s.illuminant.name == "CIE A" and "10 deg, contrast 2:1" in s.comments
+    u = cs.load_scene("uniform:luminance=12.5,size=16")
+    assert _luminance(u, (0, 0)) == pytest.approx(12.5, rel=1e-9)
+    with pytest.raises(ParameterError, match="no option angel"):
+        cs.load_scene("slanted-edge:angel=10")
+    with pytest.raises(ParameterError, match="key=value"):
+        cs.load_scene("zone-plate:0.4")

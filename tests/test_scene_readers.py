@@ -101,12 +101,16 @@ def test_mat_v5_icvl_and_arad_round_trip(tmp_path, cube, var):
     assert any("no absolute unit" in n for n in scene.notices)
 
 
-def test_mat_v5_harvard_gets_its_wavelengths(tmp_path, rng):
+def test_mat_v5_harvard_and_arad_without_bands_get_their_wavelengths(tmp_path, rng):
     ref = rng.uniform(0, 1, size=(4, 3, 31))
     savemat(tmp_path / "img1.mat", {"ref": ref, "lbl": np.ones((4, 3))})
     scene = _load_quiet(tmp_path / "img1.mat")
     np.testing.assert_array_equal(scene.data, ref)
     np.testing.assert_array_equal(scene.wavelengths, 420 + 10 * np.arange(31))
+    savemat(tmp_path / "arad.mat", {"cube": ref})
+    scene = _load_quiet(tmp_path / "arad.mat")
+    np.testing.assert_array_equal(scene.wavelengths, 400 + 10 * np.arange(31))
+    assert any("400-700 nm" in n for n in scene.notices)
 
 
 def _matlab73(path):
@@ -263,3 +267,36 @@ def test_readers_honour_a_tighter_size_limit(tmp_path, cube):
         read_envi(tmp_path / "c.hdr", max_values=100)
     with pytest.raises(FileFormatError, match="more than the 100 allowed"):
         read_mat(tmp_path / "c.mat", max_values=100)
+
+
+def test_band_folder_json_of_any_name_and_envi_micrometers_without_units(tmp_path, cube):
+    folder = tmp_path / "bands"
+    folder.mkdir()
+    many = np.concatenate([cube] * 3, axis=2)  # 12 bands: b2.png must come before b10.png
+    wls = np.arange(400.0, 520.0, 10.0)
+    for k in range(wls.size):
+        Image.fromarray((many[:, :, k] * 10000).astype(np.uint16)).save(folder / f"b{k}.png")
+    (folder / "meta.json").write_text(json.dumps({"bands": list(wls)}))
+    scene = _load_quiet(folder)
+    np.testing.assert_array_equal(scene.wavelengths, wls)
+    np.testing.assert_allclose(scene.data, (many * 10000).astype(np.uint16) / 65535.0)
+    hdr = tmp_path / "um.hdr"
+    envi.save_image(str(hdr), cube, ext=".img", metadata={"wavelength": list(WLS / 1000)})
+    scene = _load_quiet(hdr)
+    np.testing.assert_allclose(scene.wavelengths, WLS)
+    assert any("micrometers" in n for n in scene.notices)
+
+
+def test_mat_v73_isetcam_scene_struct(tmp_path, rng):
+    wls = np.arange(400.0, 701.0, 10.0)
+    photons = rng.uniform(1e15, 1e16, size=(5, 8, wls.size))
+    path = tmp_path / "iset73.mat"
+    with _matlab73(path) as f:
+        s = f.create_group("scene")
+        s.create_group("data")["photons"] = photons.T  # MATLAB's column-major storage
+        s.create_group("spectrum")["wave"] = wls[:, None]
+        s["wAngular"] = np.array([[8.0]])
+        s["distance"] = np.array([[0.5]])
+    scene = cs.load_scene(path)
+    np.testing.assert_allclose(scene.data, _photons_to_watts_per_band(photons, wls, 10.0), rtol=1e-12)
+    assert scene.angular_resolution == (1.0, 1.0) and scene.distance == 0.5

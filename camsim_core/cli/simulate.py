@@ -16,7 +16,7 @@ def register(subparsers):
         description="Simulate what CAMERA records of SCENE. Writes a raw 8/16-bit TIFF or PNG (or .npy for "
         "unquantized data) with a JSON sidecar, or a CFA DNG; with --render, writes the displayed 8-bit PNG instead.",
     )
-    p.add_argument("--scene", required=True, help="shipped scene name or a .Simg / .npz path")
+    p.add_argument("--scene", required=True, help="scene or chart name, or a scene file (.Simg, .npz, ENVI .hdr, .mat, photo, band-PNG folder)")
     p.add_argument("--camera", required=True, help="shipped camera name or a .Scam path")
     p.add_argument("--distance", type=float, help="camera distance to the scene, m (default: the scene's)")
     p.add_argument("--exposure", type=float, help="exposure time, s")

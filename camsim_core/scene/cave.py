@@ -1,7 +1,8 @@
 """A folder of one PNG per band (the CAVE multispectral database's layout).
 
-Wavelengths come from a small JSON file in the folder (``scene.json`` or
-``wavelengths.json``)::
+Wavelengths come from a small JSON file in the folder (``scene.json``,
+``wavelengths.json``, or the folder's only ``.json``; ``bands`` or ``wave``
+also name the wavelengths)::
 
     {"wavelengths": [400, 410, ...], "files": ["a.png", ...],      # files optional
      "distance": 1.5, "angular_resolution": [60, 60], "scale": 0.01}  # all optional
@@ -41,8 +42,13 @@ _JSON_NAMES = ("scene.json", "wavelengths.json")
 _CAVE_NUMBER = re.compile(r"_(\d{2})\.png$", re.IGNORECASE)
 
 
+def _natural(path):
+    """Sort key that puts band2.png before band10.png."""
+    return [int(t) if t.isdigit() else t.lower() for t in re.split(r"(\d+)", path.name)]
+
+
 def _folder(path):
-    pngs = sorted(p for p in path.iterdir() if p.suffix.lower() == ".png")
+    pngs = sorted((p for p in path.iterdir() if p.suffix.lower() == ".png"), key=_natural)
     if pngs:
         return path, pngs
     subs = [p for p in path.iterdir() if p.is_dir()]
@@ -53,15 +59,23 @@ def _folder(path):
 
 def _layout(folder, pngs):
     """(files, wavelengths, options) from the JSON file or CAVE's numbering."""
-    for name in _JSON_NAMES:
-        jp = folder / name
-        if jp.is_file():
+    candidates = [folder / n for n in _JSON_NAMES if (folder / n).is_file()]
+    others = sorted(p for p in folder.glob("*.json") if p.name not in _JSON_NAMES)
+    if not candidates and len(others) == 1:
+        candidates = others  # one JSON file of any name
+    for jp in candidates:
+        if True:
             try:
                 meta = json.loads(read_regular(jp, max_bytes=1 << 20))
             except (ValueError, UnicodeDecodeError) as exc:
                 raise FileFormatError(jp, f"not valid JSON ({exc})") from None
             if isinstance(meta, list):
                 meta = {"wavelengths": meta}
+            if isinstance(meta, dict) and "wavelengths" not in meta:
+                for alias in ("bands", "wavelength", "wave"):
+                    if alias in meta:
+                        meta["wavelengths"] = meta[alias]
+                        break
             if not isinstance(meta, dict) or "wavelengths" not in meta:
                 raise FileFormatError(jp, "expected an object with 'wavelengths' (one per band, nm)")
             try:
@@ -74,7 +88,7 @@ def _layout(folder, pngs):
                     if f.parent != folder or not f.is_file():
                         raise FileFormatError(jp, f"listed band file {f.name!r} is not in the folder")
             else:
-                files = pngs
+                files = pngs  # in natural order: band2.png before band10.png
             if len(files) != wls.size:
                 raise FileFormatError(jp, f"{wls.size} wavelengths for {len(files)} band PNGs")
             return files, wls, meta

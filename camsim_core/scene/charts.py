@@ -19,7 +19,7 @@ from ..spectra import Spectrum, resample
 from .scene import Scene
 from .synthetic import DEFAULT_WAVELENGTHS, _illuminant, scale_to_luminance
 
-__all__ = ["slanted_edge_scene", "zone_plate_scene", "uniform_scene", "munsell_scene", "chart", "CHART_NAMES",
+__all__ = ["slanted_edge_scene", "zone_plate_scene", "uniform_scene", "munsell_scene", "chart", "parse_chart", "CHART_NAMES",
            "CHART_ANGULAR_RESOLUTION"]
 
 #: Default chart sampling, px/deg: 4 x the DCS-200's 102.6.
@@ -146,9 +146,45 @@ _CHARTS = {"slanted-edge": slanted_edge_scene, "zone-plate": zone_plate_scene, "
            "munsell": munsell_scene}
 
 
+def parse_chart(text):
+    """``"NAME:key=value,key=value"`` (e.g. ``"slanted-edge:angle=10,contrast=2"``) -> (name, options).
+
+    Values are numbers where they parse as numbers (``size`` may be ``HxW``),
+    else strings (an illuminant name).
+    """
+    name, _, rest = str(text).partition(":")
+    options = {}
+    for item in filter(None, (t.strip() for t in rest.split(","))):
+        key, eq, value = item.partition("=")
+        if not eq or not key.strip():
+            raise ParameterError("chart", f"option {item!r} of {text!r} must be key=value")
+        v = value.strip()
+        if key.strip() == "size" and "x" in v.lower():
+            v = tuple(int(p) for p in v.lower().split("x"))
+        else:
+            try:
+                v = float(v) if any(c in v for c in ".eE") else int(v)
+            except ValueError:
+                pass
+        options[key.strip()] = v
+    return name.strip().lower(), options
+
+
 def chart(name, **options):
-    """A chart by name (:data:`CHART_NAMES`) with ``options`` for its generator."""
-    key = str(name).lower()
+    """A chart by name (:data:`CHART_NAMES`) with ``options`` for its generator.
+
+    ``name`` may carry options itself, ``"zone-plate:max_frequency=0.4"``
+    (see :func:`parse_chart`); unknown options are refused by name.
+    """
+    import inspect
+
+    key, parsed = parse_chart(name)
+    options = {**parsed, **options}
     if key not in _CHARTS:
         raise ParameterError("chart", f"unknown chart {name!r}; known: {', '.join(CHART_NAMES)}")
-    return _CHARTS[key](**options)
+    fn = _CHARTS[key]
+    valid = [p for p in inspect.signature(fn).parameters]
+    unknown = sorted(set(options) - set(valid))
+    if unknown:
+        raise ParameterError("chart", f"{key} has no option {', '.join(unknown)}; valid: {', '.join(valid)}")
+    return fn(**options)

@@ -9,7 +9,8 @@ data file's length before any pixel is read.
 Fields used:
 
 * ``wavelength`` (required) with ``wavelength units`` (nanometers, the
-  default, or micrometers);
+  default, or micrometers; without units, values below 100 are taken as
+  micrometers, with a notice);
 * ``data units`` (optional): ``W/(m^2 sr nm)``, ``uW/(cm^2 sr nm)`` or
   ``photons/(s sr m^2 nm)`` are converted to W/sr/m^2 per band; without it
   the values are taken as W/sr/m^2 per band, with a notice;
@@ -109,10 +110,14 @@ def read_envi(path, *, negative="error", max_values=None):
     wls = _floats(path, h, "wavelength")
     if wls.size != bands:
         raise FileFormatError(path, f"'wavelength' lists {wls.size} values for {bands} bands")
-    wunit = str(h.get("wavelength units", "nanometers")).strip().lower()
+    notices = []
+    wunit = str(h.get("wavelength units", "")).strip().lower()
+    if not wunit and wls.max() < 100:
+        wunit = "micrometers"
+        notices.append("no 'wavelength units' and wavelengths below 100: taken as micrometers")
     if wunit in ("micrometers", "micrometer", "um", "microns"):
         wls = wls * 1000.0
-    elif wunit not in ("nanometers", "nanometer", "nm", "unknown"):
+    elif wunit not in ("", "nanometers", "nanometer", "nm", "unknown"):
         raise FileFormatError(path, f"'wavelength units' {h['wavelength units']!r} not understood (nanometers or micrometers)")
     try:
         img = envi.open(str(path))
@@ -125,7 +130,6 @@ def read_envi(path, *, negative="error", max_values=None):
     if have < need:
         raise FileFormatError(data_path, f"data file is {have} bytes, the header promises {need}: truncated or wrong header")
     cube = np.array(img.open_memmap(interleave="bip"), dtype=float)  # load() would give float32
-    notices = []
     units = str(h.get("data units", "")).strip()
     kind, factor = _UNITS.get(units.lower(), (None, 1.0))
     if kind == "per nm":

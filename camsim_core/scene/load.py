@@ -37,7 +37,8 @@ def load_scene(name_or_path, *, negative="error"):
     ``.png`` / ``.jpg`` (:mod:`~camsim_core.scene.photo`, a plausible
     spectrum), or a folder of band PNGs (:mod:`~camsim_core.scene.cave`).
     Charts (``slanted-edge``, ``zone-plate``, ``uniform``, ``munsell``) come
-    at their default settings (:mod:`~camsim_core.scene.charts`). What a
+    at their default settings (:mod:`~camsim_core.scene.charts`), or with
+    options after a colon: ``"slanted-edge:angle=10,contrast=2,illuminant=A"``. What a
     reader had to assume is in ``scene.notices`` (and warned).
 
     Shipped scenes are read once per process and shared (they are read-only).
@@ -67,6 +68,8 @@ def load_scene(name_or_path, *, negative="error"):
 
             _CACHE[low] = chart(low) if low in CHART_NAMES else read_photo(low)
         return _CACHE[low]
+    if ":" in low and low.split(":", 1)[0] in CHART_NAMES:
+        return chart(key)  # a chart with options, "slanted-edge:angle=10,contrast=2"
     path = Path(key)
     if not os.path.lexists(path):
         raise FileFormatError(path, f"no such file, and not a shipped scene or chart name ({', '.join(SCENE_NAMES)})")

@@ -12,7 +12,9 @@ Variables recognised, in this order:
   optional ``imgMean`` (N), ``illuminant`` (``wave``, ``data`` in energy
   units), ``fov`` (degrees) and ``dist`` (m); photons = mcCOEF x basis' + imgMean;
 * ICVL: ``rad`` with ``bands``; ARAD: ``cube`` with ``bands``; Harvard:
-  ``ref`` (420:10:700 nm when no ``bands``/``wavelengths`` variable is present).
+  ``ref``. Without a ``bands``/``wavelengths`` variable, a 31-band cube gets
+  its dataset's sampling (ICVL and ARAD 400:10:700 nm, Harvard 420:10:720 nm)
+  with a notice.
 
 ISETCam photons are converted to W/sr/m^2 per band. ICVL, ARAD and Harvard
 cubes carry no absolute unit: their values are taken as W/sr/m^2 per band
@@ -50,6 +52,7 @@ _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 #: Largest uncompressed payload of a v5 file: the largest scene as float64, plus 64 MiB for the rest.
 MAX_V5_BYTES = MAX_SCENE_VALUES * 8 + 64 * 2**20
 _HARVARD_WAVELENGTHS = sampling_wavelengths(420, 10, 31)
+_ICVL_ARAD_WAVELENGTHS = sampling_wavelengths(400, 10, 31)
 _CUBES = (("rad", "ICVL"), ("cube", "ARAD"), ("ref", "Harvard"))
 _WAVELENGTH_NAMES = ("bands", "wavelengths", "wavelength", "wave", "wl")
 
@@ -295,12 +298,12 @@ def _dataset_cube(src, var, dataset, label):
         if name in src.names():
             n = _vector(src, src.get(name)).size
             break
-    default = _HARVARD_WAVELENGTHS if var == "ref" else None
-    cube = _cube(src, src.get(var), n or (31 if var == "ref" else None), var)
+    default = _HARVARD_WAVELENGTHS if var == "ref" else _ICVL_ARAD_WAVELENGTHS
+    cube = _cube(src, src.get(var), n or 31, var)
     wls = _wavelengths(src, cube.shape[2], default)
     notices = [f"{dataset} cube {var!r} has no absolute unit: values taken as W/sr/m^2 per band"]
-    if n is None and default is not None:
-        notices.append(f"no wavelength variable: Harvard's {default[0]:g}-{default[-1]:g} nm in 10 nm steps assumed")
+    if n is None:
+        notices.append(f"no wavelength variable: {dataset}'s {default[0]:g}-{default[-1]:g} nm in 10 nm steps assumed")
     return dict(data=cube.astype(float), wavelengths=wls, distance=None, angular_resolution=None, illuminant=None,
                 name=label, comments=f"{dataset} hyperspectral cube", notices=notices)
 
