@@ -191,3 +191,19 @@ def test_diffraction_mtf_refuses_bad_input():
         diffraction_mtf(10.0, 550.0, 0.3)
     with pytest.raises(cs.ParameterError, match="wavelength"):
         diffraction_mtf(10.0, -550.0, 4.0)
+
+
+def test_vignetting_takes_its_fraction_at_the_corner_of_the_pixel_array():
+    """Without cos^4: 1 on the axis, 1 - v (r / r_corner)^2 elsewhere, r the image height of the pixel centre."""
+    n, phi, f_mm, d = 41, 20.0, 50.0, 2.0
+    s_img = f_mm * 1e-3 * d / (d - f_mm * 1e-3)  # lens to sensor, m
+    pitch = s_img * np.tan(np.radians(1 / phi))
+    scene = Scene(np.ones((n, n, 3)), WLS, distance=d, angular_resolution=(phi, phi))
+    cam = cs.Camera(sensors=Sensors(WLS, np.eye(3), ("B", "G", "R"), "Watts"), distance=d, focal_length=f_mm, bits=None,
+                    height=n, width=n, pixel_size=(pitch, pitch), angular_resolution=(phi, phi), vignetting=0.3)
+    out = optics(cam, image_from_scene(scene)).data[:, :, 1]
+    offs = np.tan(np.radians((np.arange(n) + 0.5 - n / 2) / phi)) * s_img
+    r = np.hypot(offs[:, None], offs[None, :])
+    corner = np.hypot(n * pitch, n * pitch) / 2
+    np.testing.assert_allclose(out, 1 - 0.3 * (r / corner) ** 2, rtol=1e-9)
+    assert out[n // 2, n // 2] == pytest.approx(1 - 0.3 * (r[n // 2, n // 2] / corner) ** 2) and out.min() > 0.7 - 1e-3
