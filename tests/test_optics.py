@@ -191,3 +191,36 @@ def test_diffraction_mtf_refuses_bad_input():
         diffraction_mtf(10.0, 550.0, 0.3)
     with pytest.raises(cs.ParameterError, match="wavelength"):
         diffraction_mtf(10.0, -550.0, 4.0)
+
+
+def test_vignetting_takes_its_fraction_at_the_corner_of_the_pixel_array():
+    """Without cos^4: 1 on the axis, 1 - v (r / r_corner)^2 elsewhere, r the image height of the pixel centre."""
+    n, phi, f_mm, d = 41, 20.0, 50.0, 2.0
+    s_img = f_mm * 1e-3 * d / (d - f_mm * 1e-3)  # lens to sensor, m
+    pitch = s_img * np.tan(np.radians(1 / phi))
+    scene = Scene(np.ones((n, n, 3)), WLS, distance=d, angular_resolution=(phi, phi))
+    cam = cs.Camera(sensors=Sensors(WLS, np.eye(3), ("B", "G", "R"), "Watts"), distance=d, focal_length=f_mm, bits=None,
+                    height=n, width=n, pixel_size=(pitch, pitch), angular_resolution=(phi, phi), vignetting=0.3)
+    out = optics(cam, image_from_scene(scene)).data[:, :, 1]
+    offs = np.tan(np.radians((np.arange(n) + 0.5 - n / 2) / phi)) * s_img
+    r = np.hypot(offs[:, None], offs[None, :])
+    corner = np.hypot(n * pitch, n * pitch) / 2
+    np.testing.assert_allclose(out, 1 - 0.3 * (r / corner) ** 2, rtol=1e-9)
+    assert out[n // 2, n // 2] == pytest.approx(1 - 0.3 * (r[n // 2, n // 2] / corner) ** 2) and out.min() > 0.7 - 1e-3
+
+
+@pytest.mark.parametrize("k, wavelength", list(enumerate(WLS)))
+def test_slanted_edge_mtf_of_the_blur_is_the_diffraction_mtf(k, wavelength):
+    """An independent measurement: ISO 12233's e-SFR (camsim_core.metrics.sharpness) of a 5 degree edge
+    through the lens, divided by the chart's own pixel-aperture sinc, against Goodman's formula up to 0.8 cutoff."""
+    from camsim_core.metrics.sharpness import slanted_edge_mtf
+    from camsim_core.scene.charts import edge_coverage
+
+    n, pitch, n_f = 384, 0.5e-6, 4.0  # the e-SFR's window cuts the Airy tails: the error (at low frequency) falls as 1/n
+    left = edge_coverage((n, n), 5.0)  # exact area average of the step: the chart's MTF is sinc(f)
+    data = np.repeat((0.2 * left + 0.8 * (1 - left))[:, :, None], 3, axis=2)
+    out = optics(lens_camera(n_f), image_from_scene(scene_sampled_at(pitch, data, WLS))).data[:, :, k]
+    f, m = slanted_edge_mtf(out[16:-16, 16:-16], max_frequency=0.5)  # cycles per sample
+    v = f / (pitch * 1e3) * wavelength * 1e-6 * n_f
+    keep = v <= 0.8
+    np.testing.assert_allclose(m[keep] / np.sinc(f[keep]), airy_mtf(v[keep]), atol=0.02)
