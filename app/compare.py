@@ -501,7 +501,8 @@ class CompareView:
         try:
             scene = self.state.scene_object()
             # refuses here, before anything runs, a parameter that does not apply to a design
-            points = iter_sweep(designs, sweep["parameter"], sweep["values"], scene=scene, cancel=cancel)
+            metrics = ("cielab",) if self.state.metric == "CIELAB" else ("cielab", "scielab")  # what the plot shows
+            points = iter_sweep(designs, sweep["parameter"], sweep["values"], scene=scene, cancel=cancel, metrics=metrics)
         except CamsimError as exc:
             self.sweep_message.object = f"**Refused:** {exc}"
             return
