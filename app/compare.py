@@ -328,8 +328,12 @@ class CompareView:
         doc = self._server_doc()
         if doc is None:
             fn()
-        else:
+            return
+        try:
             doc.add_next_tick_callback(fn)
+        except Exception:  # the session closed while a worker thread was computing: nothing to show
+            if self._sweep_cancel is not None:
+                self._sweep_cancel.set()
 
     # -- the designs shown ---------------------------------------------------------
     def live_result(self):
