@@ -51,6 +51,10 @@ def test_each_pinned_design_is_computed_once(compared, monkeypatch):
     real = module.evaluate_design
     monkeypatch.setattr(module, "evaluate_design", lambda *a, **k: calls.append(a[1]) or real(*a, **k))
     state.noise_sigma = 3.0  # the live design changes; the pinned ones are not recomputed
+    sent = [p.data for p in view.render_pipes]
+    state.noise_sigma = 4.0  # another live move re-sends the live design's images only
+    assert view.render_pipes[0].data is not sent[0]
+    assert view.render_pipes[1].data is sent[1] and view.render_pipes[2].data is sent[2]
     view.rename("cones", "human cones")
     assert calls == []
     assert [d["name"] for d in json.loads(view.status.object)["designs"]] == ["live", "DCS-200", "human cones"]
