@@ -378,14 +378,15 @@ class CompareView:
                 r = results[i]
                 de = r.error_map(metric)
                 de = de if de is not None else r.delta_e
-                shown = (r.name, r.rendered, de, top)  # the arrays themselves: identity, never a reused id
-                old = self._shown[i]
-                if old is None or old[0] != r.name or old[1] is not r.rendered or old[2] is not de or old[3] != top:
-                    # a live move re-sends only the live design's images
-                    self._shown[i] = shown
+                # a live move re-sends the live design's images only (and the maps when the shared scale moves);
+                # the arrays themselves are compared (identity), never a reused id
+                old = self._shown[i] or (None, None, None, None)
+                if old[0] != r.name or old[1] is not r.rendered:
                     self.render_pipes[i].send((np.clip(r.rendered / 255.0, 0, 1), f"{r.name}: rendered"))
+                if old[0] != r.name or old[2] is not de or old[3] != top:
                     self.de_pipes[i].send((de, f"{r.name}: {metric if r.error_map(metric) is not None else 'CIELAB'} dE",
                                            top))
+                self._shown[i] = (r.name, r.rendered, de, top)
             else:
                 self._shown[i] = None
             self.render_panes[i].visible = self.de_panes[i].visible = i < len(results)
