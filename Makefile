@@ -28,7 +28,7 @@ test: install chromium
 	$(PY) -m pytest -q -rs
 
 bench: install
-	for b in pipeline processing metrics explorer experiments measures; do $(PY) benchmarks/$$b.py || exit 1; done
+	for b in pipeline processing metrics explorer experiments measures review; do $(PY) benchmarks/$$b.py || exit 1; done
 
 clean:
 	rm -rf $(VENV) test-artifacts .pytest_cache

@@ -23,6 +23,7 @@ results and shows them.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import threading
@@ -176,6 +177,7 @@ class CompareView:
     def _build_plots(self):
         blank = np.zeros((2, 2, 3))
         self.render_pipes = [streams.Pipe(data=(blank, "")) for _ in range(SLOTS)]
+        self._shown = [None] * SLOTS  # (name, rendered, dE map, scale) each slot shows
         self.de_pipes = [streams.Pipe(data=(np.zeros((2, 2)), "", 20.0)) for _ in range(SLOTS)]
 
         def show_rgb(data):
@@ -328,8 +330,12 @@ class CompareView:
         doc = self._server_doc()
         if doc is None:
             fn()
-        else:
+            return
+        try:
             doc.add_next_tick_callback(fn)
+        except Exception:  # the session closed while a worker thread was computing: nothing to show
+            if self._sweep_cancel is not None:
+                self._sweep_cancel.set()
 
     # -- the designs shown ---------------------------------------------------------
     def live_result(self):
@@ -344,18 +350,15 @@ class CompareView:
     def designs(self):
         """The DesignResults compared: the live design (unless equal to a pinned one), then the pinned ones."""
         key = self._scene_key()
-        pinned = [r for r in (self.store.get(key, p["params"]) for p in self.state.pinned) if r is not None]
+        # a stored result carries the name it was computed under: show the current one (a shallow copy)
+        pinned = [dataclasses.replace(r, name=p["name"]) for p, r in
+                  ((p, self.store.get(key, p["params"])) for p in self.state.pinned) if r is not None]
         out = []
         live_params = _design_only(self.state.design_params())
         if not any(_design_only(p["params"]) == live_params for p in self.state.pinned):
             live = self.live_result()
             if live is not None:
                 out.append(live)
-        names = {p["name"]: p for p in self.state.pinned}
-        for r in pinned:  # results carry the name they were computed under: show the current one
-            for n, p in names.items():
-                if DesignStore.key(key, p["params"]) == DesignStore.key(key, r.params):
-                    r.name = n
         return out + pinned
 
     def update(self):
@@ -375,8 +378,17 @@ class CompareView:
                 r = results[i]
                 de = r.error_map(metric)
                 de = de if de is not None else r.delta_e
-                self.render_pipes[i].send((np.clip(r.rendered / 255.0, 0, 1), f"{r.name}: rendered"))
-                self.de_pipes[i].send((de, f"{r.name}: {metric if r.error_map(metric) is not None else 'CIELAB'} dE", top))
+                # a live move re-sends the live design's images only (and the maps when the shared scale moves);
+                # the arrays themselves are compared (identity), never a reused id
+                old = self._shown[i] or (None, None, None, None)
+                if old[0] != r.name or old[1] is not r.rendered:
+                    self.render_pipes[i].send((np.clip(r.rendered / 255.0, 0, 1), f"{r.name}: rendered"))
+                if old[0] != r.name or old[2] is not de or old[3] != top:
+                    self.de_pipes[i].send((de, f"{r.name}: {metric if r.error_map(metric) is not None else 'CIELAB'} dE",
+                                           top))
+                self._shown[i] = (r.name, r.rendered, de, top)
+            else:
+                self._shown[i] = None
             self.render_panes[i].visible = self.de_panes[i].visible = i < len(results)
         self.hist_pane.object = self._histograms((
             [(r.name, r.error_map(metric) if r.error_map(metric) is not None else r.delta_e) for r in results], metric))
@@ -501,7 +513,8 @@ class CompareView:
         try:
             scene = self.state.scene_object()
             # refuses here, before anything runs, a parameter that does not apply to a design
-            points = iter_sweep(designs, sweep["parameter"], sweep["values"], scene=scene, cancel=cancel)
+            metrics = ("cielab",) if self.state.metric == "CIELAB" else ("cielab", "scielab")  # what the plot shows
+            points = iter_sweep(designs, sweep["parameter"], sweep["values"], scene=scene, cancel=cancel, metrics=metrics)
         except CamsimError as exc:
             self.sweep_message.object = f"**Refused:** {exc}"
             return

@@ -51,6 +51,10 @@ def test_each_pinned_design_is_computed_once(compared, monkeypatch):
     real = module.evaluate_design
     monkeypatch.setattr(module, "evaluate_design", lambda *a, **k: calls.append(a[1]) or real(*a, **k))
     state.noise_sigma = 3.0  # the live design changes; the pinned ones are not recomputed
+    sent = [p.data for p in view.render_pipes]
+    state.noise_sigma = 4.0  # another live move re-sends the live design's images only
+    assert view.render_pipes[0].data is not sent[0]
+    assert view.render_pipes[1].data is sent[1] and view.render_pipes[2].data is sent[2]
     view.rename("cones", "human cones")
     assert calls == []
     assert [d["name"] for d in json.loads(view.status.object)["designs"]] == ["live", "DCS-200", "human cones"]
@@ -89,7 +93,8 @@ def test_sweep_points_equal_the_engine_and_a_click_loads_one(compared):
     assert len(points) == 10 and sorted({p["design"] for p in points}) == ["DCS-200", "cones"]
     cams = {"DCS-200": "kodak-dcs200-ir", "cones": "human-cones"}
     for p in points[::3]:  # a few checked against the engine alone (each takes a second)
-        alone = evaluate_design({"camera": cams[p["design"]], "noise_sigma": p["value"]}, p["design"])
+        alone = evaluate_design({"camera": cams[p["design"]], "noise_sigma": p["value"]}, p["design"],
+                                metrics=("cielab",))  # the sweep computes the error it plots
         assert p["measures"] == alone.measures
     target = next(p for p in view.points if p.name == "DCS-200" and p.value == 6.0)
     view.on_tap(6.1, target.measure() + 0.1)

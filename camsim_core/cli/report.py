@@ -68,7 +68,8 @@ def run(args):
     results = [evaluate_design(params, name) for name, params in designs]
     points = None
     if sweep is not None:
-        points = run_sweep(designs, sweep["parameter"], sweep["values"], max_workers=args.workers)
+        metrics = ("cielab",) if args.metric == "CIELAB" else ("cielab", "scielab")  # the plotted error only
+        points = run_sweep(designs, sweep["parameter"], sweep["values"], max_workers=args.workers, metrics=metrics)
     ab = None
     if len(results) >= 2 and results[0].shape == results[1].shape and (results[0].white == results[1].white).all():
         ab = ab_difference(results[0], results[1], args.metric)

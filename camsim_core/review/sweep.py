@@ -57,9 +57,8 @@ class SweepPoint:
     error: str | None = None
 
     def measure(self, metric="CIELAB", statistic="mean"):
-        if self.measures is None:
-            return None
-        return self.measures["scielab" if metric == "S-CIELAB" else "cielab"][statistic]
+        m = (self.measures or {}).get("scielab" if metric == "S-CIELAB" else "cielab")
+        return None if m is None else m[statistic]
 
 
 def check_sweep(sweep, where="sweep"):
@@ -135,7 +134,8 @@ def iter_sweep(designs, parameter, values, *, scene=None, max_workers=2, cancel=
     cancel : threading.Event, optional
         Set it to stop after the points under way.
     metrics : tuple
-        Error maps per point ("cielab", "scielab").
+        Error maps per point ("cielab", "scielab"); S-CIELAB is most of a point's time, leave it out
+        when only CIELAB is plotted.
 
     A value the engine refuses for a design gives a point with ``error`` set;
     a parameter that does not apply to a design raises ParameterError before anything runs.
