@@ -35,7 +35,7 @@ def sensors_plot(records):
             pts = sorted((float(r["alpha"]), float(r[method])) for r in records if float(r["sigma"]) == s)
             curves.append(hv.Curve(pts, "alpha", "mean S-CIELAB dE", label=f"sigma {s:g}")
                           * hv.Scatter(pts, "alpha", "mean S-CIELAB dE", label=f"sigma {s:g}"))
-        panels.append(hv.Overlay(curves).opts(title=f"{method} rendering", frame_width=300, frame_height=220,
+        panels.append(hv.Overlay(curves).opts(title=f"{method} rendering", width=380, height=300,
                                               legend_position="top_left"))
     return panels
 
@@ -53,7 +53,7 @@ class ExperimentsView:
             "A small version of Figure 1.14 (one seed, cacaphony290, no mosaic): cameras "
             "(1 - alpha) x cones + alpha x DCS-200. The full sweep: `camsim experiment sensors`.",
             css_classes=["camsim-exp-message"])
-        self.plots = [pn.pane.HoloViews(hv.Curve([]).opts(frame_width=300, frame_height=220, title=f"{m}: not run yet"),
+        self.plots = [pn.pane.HoloViews(hv.Curve([]).opts(width=380, height=300, title=f"{m}: not run yet"),
                                         css_classes=["camsim-exp-plot"], linked_axes=False) for m in METHODS]
 
     def _parse(self, text, name):

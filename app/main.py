@@ -4,28 +4,63 @@ Serve it with ``camsim serve`` (``pn.serve(create_app, ...)``): Panel calls
 ``create_app`` once per browser session, so each session has its own
 :class:`~app.state.ExplorerState` (parameters and cached pipeline), while
 scenes, cameras and monitors are read once per process and shared read-only.
+
+In the server, each session computes in a background thread of its own
+(:class:`~app.state.Runner`) and shows the outcome on its document's next
+tick: the Tornado event loop, shared by all sessions, never waits for the
+engine. The page is a ``FastListTemplate``: controls in the sidebar, results
+in tabs (``TABS``: one line per tab).
 """
 
 from __future__ import annotations
 
 import io
+import logging
 import weakref
+from functools import partial
 
 import panel as pn
 
 from . import state as state_module
 from .compare import compare_tab
 from .quality import QualityView
-from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, ExplorerState
+from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, ExplorerState, Runner
 from .upload import BoundedUpload
 from .views import CameraView, ResultsView, SceneView
 
-__all__ = ["create_app", "DEFAULT_SCENE", "configure", "LIVE_STATES"]
+__all__ = ["create_app", "DEFAULT_SCENE", "configure", "LIVE_STATES", "TABS"]
 
 DEFAULT_SCENE = "cacaphony290"
 _options = {"scene": None, "upload": True}
 #: Every session's state while it lives (weak: a closed session's state must be freed).
 LIVE_STATES = weakref.WeakSet()
+
+START_HERE = """**Start here.** A camera design (sidebar) looks at a hyperspectral scene. The
+*Results* tab shows what the camera records (raw mosaic), its processing (demosaiced,
+rendered) and how far the rendered image is from the **ideal image**: what a human observer
+would see of the same scene on the same monitor (cone sensors, no mosaic, no noise).
+**dE** is the colour difference per pixel in CIELAB units (about 1 is just noticeable);
+**S-CIELAB** first blurs both images as the eye does, so fine-grain noise counts less.
+Move one control at a time and watch the mean dE."""
+
+#: Presentation mode: large type and images for a projector (a class on the page's body).
+_PRESENT_CSS = """
+body.camsim-present { --bokeh-font-size: 20px; --base-font-size: 20px; font-size: 20px; }
+body.camsim-present .bk-input, body.camsim-present label { font-size: 20px; }
+"""
+_PRESENT_JS = "document.body.classList.toggle('camsim-present', cb_obj.active)"
+_BIG = ":host { font-size: var(--camsim-text, inherit); } p, span, div, label, td, th, li { font-size: inherit; }"
+
+
+class _ClosedTabFilter(logging.Filter):
+    """Drop Bokeh's per-message warning when a tab closed while its last updates were on the way
+    (expected, harmless: the session is going away)."""
+
+    def filter(self, record):
+        return "connection was closed" not in record.getMessage()
+
+
+logging.getLogger("bokeh.server.views.ws").addFilter(_ClosedTabFilter())
 
 
 def configure(scene=None, *, limits=None, upload=True):
@@ -65,13 +100,52 @@ def param_discard(obj):
     return param.parameterized.discard_events(obj)
 
 
-def _widget(cls, state, parameter, css, **kw):
-    return cls.from_param(state.param[parameter], css_classes=[css], sizing_mode="stretch_width", **kw)
+def _later(fn):
+    """Run ``fn`` on the next tick of this session's event loop (now, outside a server)."""
+    doc = pn.state.curdoc
+    if doc is not None and doc.session_context is not None:
+        doc.add_next_tick_callback(fn)
+    else:
+        fn()
+
+
+def _bind(widget, state, name):
+    """Link ``widget`` and ``state.<name>`` both ways; a refused value gets a message (``state.set_value``)
+    and the widget returns to the value in force."""
+    busy = [False]
+
+    def from_widget(event):
+        if busy[0]:
+            return
+        kept = state.set_value(name, event.new)
+        if kept != event.new:
+            _later(lambda: to_widget(kept))
+
+    def to_widget(value):
+        busy[0] = True
+        try:
+            widget.value = value
+        finally:
+            busy[0] = False
+
+    widget.param.watch(from_widget, "value")
+    state.param.watch(lambda e: to_widget(e.new), name)
+    return widget
+
+
+def _number(cls, state, name, css, label, **kw):
+    """A numeric widget without client-side limits (the state checks them and says why)."""
+    return _bind(cls(name=label, value=getattr(state, name), css_classes=[css], sizing_mode="stretch_width", **kw),
+                 state, name)
+
+
+def _select(state, name, css, label):
+    return pn.widgets.Select.from_param(state.param[name], name=label, css_classes=[css], sizing_mode="stretch_width")
 
 
 def _controls(state, results):
     w = pn.widgets
-    scene = _widget(w.Select, state, "scene", "w-scene", name="Scene")
+    scene = _select(state, "scene", "w-scene", "Scene")
     limits = state_module.LIMITS
     upload = BoundedUpload(accept=".npz,.zip,.mat,.png,.jpg,.jpeg", max_bytes=limits.upload.max_upload_bytes, css_classes=["w-upload"],
                            sizing_mode="stretch_width", visible=_options["upload"])
@@ -87,38 +161,57 @@ def _controls(state, results):
     upload.param.watch(on_upload, "value")
     upload.param.watch(on_refused, "refused")
 
-    camera = _widget(w.Select, state, "camera", "w-camera", name="Camera preset")
-    alpha = _widget(w.FloatSlider, state, "alpha", "w-alpha", name="Mixture alpha (0 cones, 1 DCS-200)")
-    centers = _widget(w.TextInput, state, "gaussian_centers", "w-centers", name="Gaussian centres (nm)")
-    widths = _widget(w.TextInput, state, "gaussian_widths", "w-widths", name="Gaussian widths (nm)")
-    alpha.visible = state.camera == "mixture"
-    centers.visible = widths.visible = state.camera.startswith("gaussian")
-    mosaic = _widget(w.Select, state, "mosaic", "w-mosaic", name="Mosaic")
-    tile = _widget(w.TextInput, state, "custom_tile", "w-tile", name="Custom tile (0-based; rows split by ';')")
-    tile.visible = state.mosaic == "custom"
+    camera = _select(state, "camera", "w-camera", "Camera preset")
+    alpha = _number(w.EditableFloatSlider, state, "alpha", "w-alpha", "Mixture alpha (0 cones, 1 DCS-200)",
+                    start=0.0, end=1.0, step=0.05)
+    centers = w.TextInput.from_param(state.param.gaussian_centers, name="Gaussian centres (nm)",
+                                     css_classes=["w-centers"], sizing_mode="stretch_width")
+    widths = w.TextInput.from_param(state.param.gaussian_widths, name="Gaussian widths (nm)",
+                                    css_classes=["w-widths"], sizing_mode="stretch_width")
+    mosaic = _select(state, "mosaic", "w-mosaic", "Mosaic")
+    tile = w.TextInput.from_param(state.param.custom_tile, name="Custom tile (0-based; rows split by ';')",
+                                  css_classes=["w-tile"], sizing_mode="stretch_width")
 
-    def visibility(*_):
+    distance = _number(w.EditableFloatSlider, state, "distance", "w-distance", "Distance (m)",
+                       start=0.5, end=10.0, step=0.01)
+    exposure = _number(w.FloatInput, state, "exposure", "w-exposure", "Exposure (s)", step=0.005, format="0.0000")
+    auto = w.Button(name="Auto exposure", css_classes=["w-auto"], button_type="primary", width=120,
+                    description="Exposure putting the scene's brightest 0.5 % at 90 % of full scale")
+    auto.on_click(lambda e: state.auto_expose())
+    f_stop = _number(w.EditableFloatSlider, state, "f_stop", "w-fstop", "f-stop", start=1.0, end=32.0, step=0.1)
+    noise = _number(w.EditableFloatSlider, state, "noise_sigma", "w-noise", "Noise sigma (digital units)",
+                    start=0.0, end=50.0, step=0.5)
+    bits = w.Select(name="Bits of the raw (the display is 8-bit)", options=BITS_CHOICES, value=state.bits,
+                    css_classes=["w-bits"], sizing_mode="stretch_width")
+    bits.link(state, value="bits", bidirectional=True)
+    seed = _number(w.IntInput, state, "seed", "w-seed", "Noise seed")
+
+    demosaic = _select(state, "demosaic_method", "w-demosaic", "Demosaicing")
+    render = _select(state, "render_method", "w-render", "Rendering")
+    illum = _select(state, "illuminant", "w-illuminant", "Illuminant")
+    monitor = _select(state, "monitor", "w-monitor", "Monitor")
+    metric = w.RadioButtonGroup.from_param(state.param.metric, name="Error metric", css_classes=["w-metric"],
+                                           sizing_mode="stretch_width")
+    de_scale = w.RadioButtonGroup.from_param(state.param.de_scale, name="dE colours", css_classes=["w-de-scale"],
+                                             sizing_mode="stretch_width")
+
+    def states(*_):
+        """Show only the controls that act on the current camera; disable the inert ones, saying why."""
         alpha.visible = state.camera == "mixture"
         centers.visible = widths.visible = state.camera.startswith("gaussian")
         tile.visible = state.mosaic == "custom"
+        skipped = state.result is not None and "demosaic" in getattr(state.result, "skipped", {})
+        demosaic.disabled = skipped
+        demosaic.name = "Demosaicing: not needed (full-colour image)" if skipped else "Demosaicing"
+        illum.disabled = state.render_method != "illuminant"
+        illum.name = ("Illuminant (used by illuminant-based rendering only)" if illum.disabled else
+                      "Illuminant (known, or estimated from the image)")
+        noisy = state.noise_sigma > 0
+        seed.disabled = not noisy
+        seed.name = "Noise seed" if noisy else "Noise seed (no effect without noise)"
 
-    state.param.watch(visibility, ["camera", "mosaic"])
-
-    distance = _widget(w.EditableFloatSlider, state, "distance", "w-distance", name="Distance (m)")
-    exposure = _widget(w.FloatInput, state, "exposure", "w-exposure", name="Exposure (s)", format="0.0000")
-    auto = w.Button(name="Auto exposure", css_classes=["w-auto"], button_type="primary", width=120)
-    auto.on_click(lambda e: state.auto_expose())
-    f_stop = _widget(w.EditableFloatSlider, state, "f_stop", "w-fstop", name="f-stop")
-    noise = _widget(w.EditableFloatSlider, state, "noise_sigma", "w-noise", name="Noise sigma (digital units)")
-    bits = w.Select(name="Bits", options=BITS_CHOICES, value=state.bits, css_classes=["w-bits"], sizing_mode="stretch_width")
-    bits.link(state, value="bits", bidirectional=True)
-    seed = _widget(w.IntInput, state, "seed", "w-seed", name="Noise seed")
-
-    demosaic = _widget(w.Select, state, "demosaic_method", "w-demosaic", name="Demosaicing")
-    render = _widget(w.Select, state, "render_method", "w-render", name="Rendering")
-    illum = _widget(w.Select, state, "illuminant", "w-illuminant", name="Illuminant (for illuminant-based)")
-    monitor = _widget(w.Select, state, "monitor", "w-monitor", name="Monitor")
-    metric = _widget(w.RadioButtonGroup, state, "metric", "w-metric", name="Error metric")
+    state.param.watch(states, ["camera", "mosaic", "result", "render_method", "noise_sigma"])
+    states()
 
     params_down = w.FileDownload(callback=lambda: io.BytesIO(state.to_json().encode()), filename="camsim-parameters.json",
                                  label="Parameters (JSON)", css_classes=["w-json-download"], button_type="light",
@@ -145,41 +238,107 @@ def _controls(state, results):
                        css_classes=["w-csv"], button_type="light", sizing_mode="stretch_width"),
     ]
     card = dict(sizing_mode="stretch_width", margin=(4, 0))
-    return pn.Column(
-        pn.Card(scene, pn.pane.Markdown("Upload a scene (.npz, .mat, a photo, or a .zip of a .Simg, an ENVI .hdr or band PNGs):",
-                                        visible=_options["upload"]), upload, title="Scene", **card),
+    return [
+        pn.Card(scene, pn.pane.Markdown("Upload a scene (.npz, .mat, a photo, or a .zip of a .Simg, an ENVI .hdr or "
+                                        "band PNGs):", visible=_options["upload"]), upload, title="Scene", **card),
         pn.Card(camera, alpha, centers, widths, mosaic, tile, title="Camera", **card),
-        pn.Card(distance, pn.Row(exposure, auto), f_stop, noise, bits, seed, title="Exposure and noise", **card),
-        pn.Card(demosaic, render, illum, monitor, metric, title="Processing", **card),
+        pn.Card(distance, pn.Row(exposure, auto, sizing_mode="stretch_width"), f_stop, noise, bits, seed,
+                title="Exposure and noise", **card),
+        pn.Card(demosaic, render, illum, monitor, pn.pane.Markdown("Error metric and dE map colours:"), metric,
+                de_scale, title="Processing", **card),
         pn.Card(params_down, pn.pane.Markdown("Load parameters (JSON):"), params_up, *downloads,
-                title="Save and share", collapsed=False, **card),
-        width=330,
-    )
+                title="Save and share", collapsed=True, **card),
+    ]
 
 
-def _experiments_tab():
-    """The Experiments tab: a small sensors sweep (issue 6) when the engine offers it."""
+def _experiments_tab(state):
+    """The Experiments tab: a small sensors sweep when the engine offers it."""
     try:
         from camsim_core.experiments import sensors as experiment
 
         run = experiment.run
         from .experiments import ExperimentsView
     except Exception:
-        return pn.pane.Markdown("The experiments (issue 6) are not available in this engine yet.",
+        return pn.pane.Markdown("The experiments are not available in this engine yet.",
                                 css_classes=["camsim-experiments"])
     return ExperimentsView(run).panel()
 
 
-def create_app(scene=None):
-    """One session's page (a fresh state: nothing is shared between sessions but read-only data)."""
-    pn.extension(notifications=False)
+def _physical_tab(state):
+    from .physical import PhysicalView
+
+    return PhysicalView(state).panel()
+
+
+def _results_tab(state, views):
+    results = views["results"]
+    p = results.panes
+    grid = pn.GridBox(p["raw"], p["demosaiced"], p["rendered"], p["ideal"], p["de"], p["hist"], ncols=3,
+                      sizing_mode="stretch_width", css_classes=["camsim-grid"])
+    views["grid"] = grid
+    fit = pn.widgets.Button(name="Show whole images", css_classes=["w-fit"], width=170)
+    fit.on_click(lambda e: results.fit())
+    return pn.Column(results.stats, results.warnings, grid,
+                     pn.Row(fit, pn.pane.Markdown("Image views share zoom and pan: wheel to zoom, drag to pan; "
+                                                  "hover for values.")),
+                     sizing_mode="stretch_width")
+
+
+def _scene_tab(state, views):
+    sv = views["scene"]
+    return pn.Column(pn.Row(sv.wavelength, sv.clear), pn.Row(sv.rgb_pane, sv.plane_pane, sizing_mode="stretch_width"),
+                     pn.Row(sv.spectrum_pane, sv.meta, sizing_mode="stretch_width"), sizing_mode="stretch_width")
+
+
+def _camera_tab(state, views):
+    cv = views["camera"]
+    return pn.Column(cv.info, pn.Row(cv.curves, cv.tile), sizing_mode="stretch_width")
+
+
+#: The tabs, in order: (title, builder(state, views) -> a Panel object). Add a tab with one line.
+TABS = [
+    ("Results", _results_tab),
+    ("Scene", _scene_tab),
+    ("Camera", _camera_tab),
+    ("Image quality", lambda state, views: QualityView(state).panel()),
+    ("Compare designs", lambda state, views: compare_tab(state)),
+    ("Experiments", lambda state, views: _experiments_tab(state)),
+    ("Optics & sensor", lambda state, views: _physical_tab(state)),
+]
+
+
+def _new_state(scene):
     chosen = scene or _options["scene"] or DEFAULT_SCENE
     if isinstance(chosen, str):
-        state = ExplorerState(scene=chosen)
-    else:  # a Scene read from a file by ``camsim serve --scene PATH``
-        state = ExplorerState()
-        state.add_scene(f"file:{chosen.name}", chosen)
+        return ExplorerState(scene=chosen, start=False)
+    state = ExplorerState(start=False)  # a Scene read from a file by ``camsim serve --scene PATH``
+    state.add_scene(f"file:{chosen.name}", chosen)
+    return state
+
+
+def _go_background(state):
+    """In a server session: compute in a thread of this session, show results on its next tick."""
+    doc = pn.state.curdoc
+    if doc is None or doc.session_context is None:
+        return
+
+    def deliver(job, outcome):
+        try:
+            doc.add_next_tick_callback(partial(state._apply, job, outcome))
+        except Exception:  # the session has closed: nothing to show
+            pass
+
+    state.set_runner(Runner(state._compute, deliver))
+    state.defer = _later
+
+
+def create_app(scene=None):
+    """One session's page (a fresh state: nothing is shared between sessions but read-only data)."""
+    pn.extension(notifications=False, raw_css=[_PRESENT_CSS])
+    state = _new_state(scene)
     LIVE_STATES.add(state)
+    _go_background(state)
+    state.recompute()  # in the background in a server: the page shows at once, marked as computing
     if pn.state.location is not None:
         def on_error(values):
             state.message = f"The link held parameters that were refused: {str(values)[:300]}"
@@ -190,9 +349,10 @@ def create_app(scene=None):
                              f"{state_module.LIMITS.max_text} characters and were ignored")
         else:
             pn.state.location.sync(state, {p: p for p in URL_PARAMETERS + COMPARE_PARAMETERS}, on_error=on_error)
-    results = ResultsView(state)
-    scene_view = SceneView(state)
-    camera_view = CameraView(state)
+    views = {"state": state}
+    views["results"] = results = ResultsView(state)
+    views["scene"] = SceneView(state)
+    views["camera"] = CameraView(state)
     alert = pn.pane.Alert(state.message, alert_type="danger", visible=bool(state.message),
                           css_classes=["camsim-alert"], sizing_mode="stretch_width")
     notice = pn.pane.Alert(state.notice, alert_type="warning", visible=bool(state.notice),
@@ -205,36 +365,31 @@ def create_app(scene=None):
         notice.visible = bool(state.notice)
 
     state.param.watch(on_message, ["message", "notice"])
-    p = results.panes
-    results_tab = pn.Column(
-        results.stats,
-        pn.Row(p["raw"], p["demosaiced"], p["rendered"]),
-        pn.Row(p["ideal"], p["de"], p["hist"]),
-        pn.pane.Markdown("Image views share zoom and pan (wheel to zoom, drag to pan)."),
-        name="Results",
+    tabs = pn.Tabs(*[(title, build(state, views)) for title, build in TABS],
+                   css_classes=["camsim-tabs"], dynamic=False, sizing_mode="stretch_width")
+    present = pn.widgets.Toggle(name="Presentation mode", css_classes=["w-present"], button_type="default",
+                                sizing_mode="stretch_width")
+    present.jscallback(value=_PRESENT_JS)
+
+    def on_present(event):
+        views["grid"].ncols = 2 if event.new else 3
+
+    present.param.watch(on_present, "value")
+    diagnostics = pn.Card(results.status, title="Diagnostics (parameters computed, steps run, engine time)",
+                          collapsed=True, sizing_mode="stretch_width", css_classes=["camsim-diagnostics"])
+    intro = pn.pane.Markdown(START_HERE, css_classes=["camsim-start"], sizing_mode="stretch_width")
+    body = pn.Column(alert, notice, intro, tabs, diagnostics, sizing_mode="stretch_width")
+    body.state = state
+    template = pn.template.BootstrapTemplate(
+        title="camsim explorer: a camera design on a hyperspectral scene",
+        sidebar=[present, *_controls(state, results)],
+        main=[body],
+        sidebar_width=330,
     )
-    scene_tab = pn.Column(
-        pn.Row(scene_view.wavelength, scene_view.clear),
-        pn.Row(scene_view.rgb_pane, scene_view.plane_pane),
-        pn.Row(scene_view.spectrum_pane, scene_view.meta),
-        name="Scene",
-    )
-    camera_tab = pn.Column(camera_view.info, pn.Row(camera_view.curves, camera_view.tile), name="Camera")
-    tabs = pn.Tabs(results_tab, scene_tab, camera_tab, ("Image quality", QualityView(state).panel()),
-                   compare_tab(state), ("Experiments", _experiments_tab()),
-                   css_classes=["camsim-tabs"], dynamic=False)
-    tabs.append(__import__("app.physical", fromlist=["PhysicalView"]).PhysicalView(state).panel())  # Optics & sensor
-    header = pn.pane.Markdown("## camsim explorer: a camera design on a hyperspectral scene", margin=(0, 10))
-    page = pn.Column(
-        header, alert, notice,
-        pn.Row(_controls(state, results), pn.Column(tabs, pn.pane.Markdown("**Diagnostics** (parameters, stages run, engine time):"),
-                                                    results.status)),
-        sizing_mode="stretch_width",
-    )
-    page.state = state  # for tests and notebooks
+    template.state = state  # for tests and notebooks
     if pn.state.curdoc is not None and pn.state.curdoc.session_context is not None:
-        pn.state.on_session_destroyed(lambda ctx, state=state, page=page: _release(state, page))
-    return page
+        pn.state.on_session_destroyed(lambda ctx, state=state, page=body: _release(state, page))
+    return template
 
 
 def _long_url_values(search):

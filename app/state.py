@@ -6,13 +6,23 @@ camera presets and monitors come from the engine's loaders, which read them
 once per process and share them read-only between sessions.
 
 A parameter combination the engine refuses (a tile naming a missing sensor,
-an unparsable list of Gaussian centres, a bad upload) sets ``message`` and
-leaves ``result`` at the last good one: the page never goes dead.
+an unparsable list of Gaussian centres, a bad upload) sets ``message``,
+leaves ``result`` at the last good one and puts the parameters back to the
+values of that result (``shown``): the page never goes dead and never shows
+one camera's widgets over another camera's images.
+
+In the server each session computes in a background thread of its own
+(:class:`Runner`): the Tornado event loop stays free for other sessions, and a
+change made while a result is being computed supersedes the queued ones (only
+the newest parameters are computed). ``computing`` is True meanwhile, so the
+page can show that its results are out of date.
 """
 
 from __future__ import annotations
 
+import itertools
 import json
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,8 +40,8 @@ from camsim_core.review.design import (CAMERA_CHOICES, GAUSSIAN_DEFAULTS, ILLUMI
                                        processing_from_params)
 from camsim_core.review.sweep import check_sweep
 
-__all__ = ["ExplorerState", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_PARAMETERS", "COMPARE_PARAMETERS", "parse_tile",
-           "parse_numbers", "load_upload", "ServerLimits", "LIMITS", "json_depth"]
+__all__ = ["ExplorerState", "Runner", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_PARAMETERS", "COMPARE_PARAMETERS",
+           "parse_tile", "parse_numbers", "load_upload", "ServerLimits", "LIMITS", "json_depth", "exposure_warnings"]
 
 #: Bits offered; 0 means unquantized.
 BITS_CHOICES = {"8": 8, "10": 10, "12": 12, "16": 16, "unquantized": 0}
@@ -172,14 +182,28 @@ class ExplorerState(param.Parameterized):
     result = param.Parameter(default=None, precedence=-1, doc="Last good pipeline result")
     message = param.String(default="", precedence=-1, doc="Last problem, for the page's alert")
     notice = param.String(default="", precedence=-1, doc="Steps not available (engine work in progress)")
+    computing = param.Boolean(default=False, precedence=-1, doc="A result for newer parameters is being computed")
+    shown = param.Dict(default={}, precedence=-1, doc="The parameters of ``result`` (what the page shows)")
+    de_scale = param.Selector(default="data", objects=["data", "fixed 0-20"], precedence=-1,
+                              doc="dE map colour scale: follow the data, or fixed (to compare designs)")
 
-    def __init__(self, **params):
+    def __init__(self, runner=None, start=True, **params):
+        """``start=False``: compute nothing yet (the page first sets a runner, then calls ``recompute``)."""
         super().__init__(**params)
         self.pipeline = Pipeline()
+        self.runner = runner
         self._uploads = {}
         self._updating = False
+        self._requests = itertools.count(1)
+        self._latest = 0
+        self._accepted = None  # parameters of the newest job accepted (computed or being computed)
         self.param.watch(self._on_change, [p for p in URL_PARAMETERS if p not in ("wavelength",)])
-        self.recompute()
+        if start:
+            self.recompute()
+
+    def set_runner(self, runner):
+        """Compute in the background from now on (``runner.submit(job)``, see :class:`Runner`)."""
+        self.runner = runner
 
     # -- building engine objects ------------------------------------------
     def scene_object(self):
@@ -213,38 +237,137 @@ class ExplorerState(param.Parameterized):
                     self.param.update(gaussian_centers=centers, gaussian_widths=widths)
                 finally:
                     self._updating = False
+        if "mosaic" in names and self.mosaic == "custom" and self.result is not None:
+            self._start_custom_tile()
         self.recompute()
 
-    def recompute(self):
-        """Run the cached pipeline; keep the last good result when the parameters are refused."""
+    def _start_custom_tile(self):
+        """A custom tile the camera cannot use (refused, or not sampling every sensor) starts from the
+        tile shown instead (then edit it)."""
         try:
-            scene = self.scene_object()
-            camera = self.camera_object()
-            res = self.pipeline.run(scene, camera, self.processing())
+            cam = self.camera_object()
+            usable = set(np.unique(np.asarray(cam.mosaic)).tolist()) == set(range(len(cam.sensors)))
+        except CamsimError:
+            usable = False
+        if not usable:
+            tile = self.result.raw.tile
+            if tile is not None and np.ndim(tile) == 2:
+                self._updating = True
+                try:
+                    self.custom_tile = "; ".join(" ".join(str(int(v)) for v in row) for row in np.asarray(tile))
+                finally:
+                    self._updating = False
+
+    def recompute(self):
+        """Compute the result for the current parameters (in the background when a runner is set).
+
+        Parameters the engine refuses before running (an unparsable tile, a
+        tile naming a missing sensor) are refused at once: ``message`` says
+        why and the parameters go back to those of the result shown.
+        """
+        try:
+            job = self._job()
         except CamsimError as exc:
-            self.message = str(exc)
+            self._refuse(str(exc), self._accepted)
             return
         except Exception as exc:  # never a dead page
-            self.message = f"{type(exc).__name__}: {exc}"
+            self._refuse(f"{type(exc).__name__}: {exc}", self._accepted)
             return
-        if res.raw is None:
-            self.message = "; ".join(f"{k}: {v}" for k, v in res.errors.items())
+        self._latest = job["id"]
+        self._accepted = job["params"]
+        if self.runner is None:
+            self._apply(job, self._compute(job))
+        else:
+            self.computing = True
+            self.runner.submit(job)
+
+    def _job(self):
+        """What to compute: the parameters and the engine objects they describe (cheap to build)."""
+        return {"id": next(self._requests), "params": self.design_params(), "scene": self.scene_object(),
+                "camera": self.camera_object(), "processing": self.processing()}
+
+    def _compute(self, job):
+        """Run the cached pipeline (the only slow part; safe in a worker thread: one pipeline per session)."""
+        try:
+            return self.pipeline.run(job["scene"], job["camera"], job["processing"]), None
+        except CamsimError as exc:
+            return None, str(exc)
+        except Exception as exc:  # never a dead page
+            return None, f"{type(exc).__name__}: {exc}"
+
+    def _apply(self, job, outcome):
+        """Show a computed outcome (on the session's event loop); older jobs than the newest are dropped."""
+        if job["id"] != self._latest:
             return
-        unavailable = {k: v for k, v in res.errors.items() if "NotImplementedError" in v}
-        refused = {k: v for k, v in res.errors.items() if k not in unavailable}
-        self.notice = ("Not yet available in the engine: " + ", ".join(unavailable)) if unavailable else ""
-        if refused:  # a bad combination (e.g. a Bayer-only demosaicing on a 4-sensor grid)
-            self.message = "; ".join(f"{k}: {v}" for k, v in refused.items())
+        res, error = outcome
+        if error is None and res.raw is None:
+            error = "; ".join(f"{k}: {v}" for k, v in res.errors.items())
+        if error is None:
+            unavailable = {k: v for k, v in res.errors.items() if "NotImplementedError" in v}
+            refused = {k: v for k, v in res.errors.items() if k not in unavailable}
+            self.notice = ("Not yet available in the engine: " + ", ".join(unavailable)) if unavailable else ""
+            if refused:  # a bad combination (e.g. a Bayer-only demosaicing on a 4-sensor grid)
+                error = "; ".join(f"{k}: {v}" for k, v in refused.items())
+        if error is not None:
+            self._refuse(error)
+            self._accepted = self.shown
+            self.computing = False
             return
         self.message = ""
+        res.params = job["params"]
+        self.shown = dict(job["params"])
         self.result = res
+        self.computing = False
+
+    def _refuse(self, reason, back_to=None):
+        """Say why, and put the parameters back to ``back_to`` (default: those of the result shown)."""
+        target = self.shown if back_to is None else back_to
+        back = {k: v for k, v in target.items() if getattr(self, k) != v}
+        changed = ", ".join(f"{k} {getattr(self, k)!r} -> {v!r}" for k, v in back.items())
+        self.message = f"Refused: {reason}" + (f" (put back: {changed})" if changed else "")
+        if back:
+            self.defer(lambda: self._restore(back))
+
+    def _restore(self, values):
+        self._updating = True
+        try:
+            self.param.update(**values)
+        finally:
+            self._updating = False
+
+    @staticmethod
+    def defer(fn):
+        """Run ``fn`` now; the page replaces this with "on the next tick of the event loop" (a widget
+        changed from the browser ignores a change made within its own callback)."""
+        fn()
+
+    def set_value(self, name, value):
+        """Set one parameter from a widget; a value out of range is refused with a message.
+
+        Returns the value in force afterwards (for the widget to show).
+        """
+        try:
+            setattr(self, name, value)
+        except (ValueError, TypeError) as exc:
+            p = self.param[name]
+            bounds = getattr(p, "bounds", None)
+            why = (f"must lie in {_range_text(bounds)}" if bounds is not None else str(exc).split(". ")[0])
+            self.message = f"Refused: {_LABELS.get(name, name)} {value!r} {why}; kept {getattr(self, name)!r}"
+        return getattr(self, name)
 
     def auto_expose(self):
-        """Set the exposure so that the scene's bright end sits at 90 % of full scale."""
+        """Set the exposure so that the scene's bright end (99.5th percentile of the brightest
+        sensor, noiseless) sits at 90 % of full scale; ``notice`` says so."""
         try:
-            self.exposure = float(np.clip(cc.auto_exposure(self.scene_object(), self.camera_object()), 1e-4, 10.0))
+            value = float(cc.auto_exposure(self.scene_object(), self.camera_object()))
         except CamsimError as exc:
-            self.message = str(exc)
+            self.message = f"Refused: {exc}"
+            return
+        lo, hi = self.param.exposure.bounds
+        self.exposure = float(np.clip(value, lo, hi))
+        clipped = "" if lo <= value <= hi else f" ({value:.4g} s is outside {lo:g}-{hi:g} s: limited)"
+        self.notice = (f"Auto exposure: {self.exposure:.4g} s puts the scene's brightest 0.5 % at 90 % of full "
+                       f"scale{clipped}. It maximises signal, not colour fidelity: dE can rise.")
 
     def add_upload(self, filename, content):
         """Validate and select an uploaded scene; on failure set ``message`` and keep the current scene."""
@@ -332,6 +455,69 @@ class ExplorerState(param.Parameterized):
             self._updating = False
         self.recompute()
         return True
+
+
+class Runner:
+    """Computes a session's results in one background thread; only the newest request is computed.
+
+    ``submit(job)`` returns at once. A worker thread (started when needed,
+    ending when idle) runs ``compute(job)`` and hands ``(job, outcome)`` to
+    ``deliver``; jobs submitted while it computes replace each other, so after
+    a burst of changes only the last is computed, and an outcome that a newer
+    job has made obsolete is not delivered.
+    """
+
+    def __init__(self, compute, deliver):
+        self._compute = compute
+        self._deliver = deliver
+        self._lock = threading.Lock()
+        self._pending = None
+        self.busy = False
+
+    def submit(self, job):
+        with self._lock:
+            self._pending = job
+            if self.busy:
+                return
+            self.busy = True
+        threading.Thread(target=self._loop, name="camsim-session", daemon=True).start()
+
+    def _loop(self):
+        while True:
+            with self._lock:
+                job, self._pending = self._pending, None
+                if job is None:
+                    self.busy = False
+                    return
+            outcome = self._compute(job)
+            with self._lock:
+                superseded = self._pending is not None
+            if not superseded:
+                self._deliver(job, outcome)
+
+
+def exposure_warnings(raw):
+    """Shares of clipped (at full scale) pixels and of pixels in the lowest 2 % of the digital range.
+
+    ``raw`` is a CameraImage in digital units; returns ``(clipped, dark)`` as fractions.
+    An unquantized image is measured against 255 (the display convention of the engine).
+    """
+    data = np.asarray(raw.data, float)
+    full = float(raw.full_scale or 255.0)
+    clipped = float(np.mean(data >= full - 0.5)) if raw.quantized else float(np.mean(data >= full))
+    dark = float(np.mean(data <= 0.02 * full))
+    return clipped, dark
+
+
+_LABELS = {"noise_sigma": "noise sigma", "f_stop": "f-stop", "exposure": "exposure (s)", "distance": "distance (m)",
+           "seed": "seed", "alpha": "alpha", "bits": "bits"}
+
+
+def _range_text(bounds):
+    lo, hi = bounds
+    if hi is None:
+        return f"[{lo:g}, no upper limit)"
+    return f"[{lo:g}, {hi:g}]"
 
 
 def parse_numbers_safe(text):

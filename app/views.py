@@ -1,10 +1,12 @@
-"""Views of the explorer: HoloViews plots that follow an :class:`~app.state.ExplorerState`.
+"""Views of the explorer: Bokeh figures that follow an :class:`~app.state.ExplorerState`.
 
 Only display logic lives here (turning engine arrays into pictures); every
 number shown comes from the engine through the state's cached pipeline.
-Image views of the camera's results share one coordinate system (camera
-pixels, dimensions ``x`` and ``y``), so Panel links their zoom and pan;
-``DynamicMap`` + ``Pipe`` patch the data in place, keeping the zoom.
+Each figure is built once per session; a new result replaces the data of its
+``ColumnDataSource`` (images as packed 8-bit RGBA), so an update sends arrays,
+not new plots. The image views of the camera's results share one pair of
+ranges (camera pixels), so they zoom and pan together, and refit to the
+whole image when its size changes.
 """
 
 from __future__ import annotations
@@ -14,21 +16,25 @@ import io
 import json
 
 import colour
-import holoviews as hv
-import holoviews.plotting.bokeh  # noqa: F401  (the bokeh backend, for .opts)
 import numpy as np
 import panel as pn
-from holoviews import streams
+from bokeh.events import SelectionGeometry, Tap
+from bokeh.models import (BoxSelectTool, ColorBar, ColumnDataSource, CustomJSHover, DataRange1d, HoverTool,
+                          LinearColorMapper, Range1d, Span, TapTool)
+from bokeh.palettes import Category10, Greys256, Inferno256
+from bokeh.plotting import figure
 
+from camsim_core.cache import fingerprint
 from camsim_core.simulation import tile_index_map
 
-hv.Store.set_current_backend("bokeh")
+from .state import exposure_warnings
 
-__all__ = ["sensor_colors", "scene_srgb", "raw_rgb", "planes_rgb", "ResultsView", "SceneView", "CameraView"]
 
+__all__ = ["sensor_colors", "scene_srgb", "raw_rgb", "planes_rgb", "rgba32", "histogram", "de_range",
+           "ResultsView", "SceneView", "CameraView"]
+
+#: The fixed dE colour scale (an option, for comparing designs); by default the scale follows the data.
 DE_RANGE = (0.0, 20.0)
-IMAGE_OPTS = dict(frame_width=310, data_aspect=1, xaxis=None, yaxis=None, toolbar="above",
-                  tools=["hover"], active_tools=["wheel_zoom"])
 _SCENE_RGB = {}
 
 
@@ -123,110 +129,285 @@ def digest(array):
     return hashlib.blake2b(a.tobytes(), digest_size=6).hexdigest()
 
 
-def _bounds(shape):
-    h, w = shape[:2]
-    return (0, 0, w, h)
+def rgba32(rgb):
+    """(H, W, 3) colours in [0, 1] (or uint8) as Bokeh's packed RGBA: (H, W) uint32, bottom row first.
+
+    8 bits per channel is what the screen shows; packing four of them in one
+    uint32 lets Bokeh's ``image_rgba`` draw the array as sent (a quarter of the
+    bytes of float RGB).
+    """
+    rgb = np.asarray(rgb)
+    h, w = rgb.shape[:2]
+    out = np.empty((h, w, 4), np.uint8)
+    out[..., :3] = rgb if rgb.dtype == np.uint8 else np.clip(np.rint(np.asarray(rgb, float) * 255.0), 0, 255)
+    out[..., 3] = 255
+    return np.ascontiguousarray(out[::-1]).view(np.uint32)[..., 0]
 
 
-def _rgb_map(title, pipe):
-    def show(data):
-        rgb, label = data
-        return hv.RGB(rgb, bounds=_bounds(rgb.shape), label=label).opts(title=label or title)
-
-    return hv.DynamicMap(show, streams=[pipe]).opts(hv.opts.RGB(**IMAGE_OPTS))
+def monitor_u8(image):
+    """A rendered image (0..255 monitor settings) as uint8 RGB."""
+    data = np.asarray(getattr(image, "data", image), float)
+    return np.clip(np.rint(data), 0, 255).astype(np.uint8)
 
 
-def _blank(shape):
-    return np.zeros(tuple(shape[:2]) + (3,))
+def histogram(values, bins=40):
+    """Counts of finite ``values`` in ``bins`` equal bins from 0 to the 99.5th percentile
+    (at least 1); larger values are counted in the last bin. Returns (edges, counts, top)."""
+    v = np.asarray(values, float).ravel()
+    v = v[np.isfinite(v)]
+    top = float(max(1.0, np.ceil(np.percentile(v, 99.5)))) if v.size else 1.0
+    edges = np.linspace(0.0, top, bins + 1)
+    counts, _ = np.histogram(np.clip(v, 0, top), edges)
+    return edges, counts, top
+
+
+def de_range(de, scale):
+    """Colour range of the dE map: (0, 99.5th percentile) of the data, or the fixed (0, 20)."""
+    if scale != "data":
+        return DE_RANGE
+    v = np.asarray(de, float)
+    v = v[np.isfinite(v)]
+    top = float(np.percentile(v, 99.5)) if v.size else 1.0
+    return (0.0, max(top, 0.5))
+
+
+def _image_figure(x_range, y_range, name, shape):
+    """A borderless figure that shows an image filling its frame, width following the page."""
+    h, w = shape
+    fig = figure(x_range=x_range, y_range=y_range, tools="pan,wheel_zoom", active_scroll="wheel_zoom",
+                 toolbar_location=None, sizing_mode="scale_width", aspect_ratio=w / h, min_border=0,
+                 outline_line_color=None, background_fill_color="white", border_fill_color="white", name=name,
+                 output_backend="canvas")
+    fig.axis.visible = False
+    fig.grid.visible = False
+    return fig
+
+
+def _unavailable(shape):
+    """A grey stand-in of the image's size for an output the engine could not give."""
+    return rgba32(np.full(tuple(shape) + (3,), 0.55))
+
+
+def _colorbar(mapper, title, name):
+    """A horizontal colour bar in a strip of its own (inside the image figure it would change the
+    image's aspect ratio)."""
+    fig = figure(height=58, sizing_mode="stretch_width", toolbar_location=None, tools="", min_border=0,
+                 min_border_left=10, min_border_right=20, outline_line_color=None, name=name,
+                 x_range=Range1d(0, 1), y_range=Range1d(0, 1))
+    fig.axis.visible = False
+    fig.grid.visible = False
+    fig.scatter([], [])  # a renderer, so the strip is a valid plot
+    fig.add_layout(ColorBar(color_mapper=mapper, title=title, orientation="horizontal", height=12,
+                            location=(0, 0), padding=4), "center")
+    return fig
+
+
+def _label(text, css):
+    return pn.pane.HTML(text, css_classes=["camsim-label", css], margin=(2, 5), sizing_mode="stretch_width")
+
+
+_RGB_HOVER = CustomJSHover(code="""
+    const v = value >>> 0;
+    return `${v & 255}, ${(v >>> 8) & 255}, ${(v >>> 16) & 255}`;""")
 
 
 # -- the results: raw, demosaiced, rendered, ideal, dE ---------------------
 class ResultsView:
-    """Image views sharing zoom and pan, the dE histogram and the statistics line."""
+    """Image views sharing zoom and pan, the dE histogram and the statistics line.
 
-    TITLES = {"raw": "Raw mosaic (by sensor)", "demosaiced": "Demosaiced", "rendered": "Rendered",
-              "ideal": "Ideal image"}
+    Each view is a Bokeh figure made once; a new result replaces the data of
+    its ``ColumnDataSource`` (packed 8-bit RGBA, or the dE values coloured in
+    the browser), so nothing is rebuilt. On a change of image size all views
+    refit to the whole image; otherwise zoom and pan are kept.
+    """
+
+    TITLES = {"raw": "Raw mosaic (each pixel in its sensor's colour)", "demosaiced": "Demosaiced",
+              "rendered": "Rendered (the camera's image on the monitor)",
+              "ideal": "Ideal image (what a human observer would see)"}
+    KEYS = ("raw", "demosaiced", "rendered", "ideal", "de")
 
     def __init__(self, state):
         self.state = state
-        shape = (233, 372)
-        self.pipes = {k: streams.Pipe(data=(_blank(shape), t)) for k, t in self.TITLES.items()}
-        self.de_pipe = streams.Pipe(data=(np.zeros(shape), "dE"))
-        self.hist_pipe = streams.Pipe(data=(np.zeros(1), "dE"))
-        self.panes = {
-            k: pn.pane.HoloViews(_rgb_map(t, self.pipes[k]), css_classes=[f"camsim-{k}"], linked_axes=True)
-            for k, t in self.TITLES.items()
-        }
-
-        def show_de(data):
-            de, label = data
-            return hv.Image(de, bounds=_bounds(de.shape), vdims=["dE"], label=label).opts(title=label)
-
-        de_map = hv.DynamicMap(show_de, streams=[self.de_pipe]).opts(
-            hv.opts.Image(cmap="inferno", clim=DE_RANGE, colorbar=True, **IMAGE_OPTS))
-        self.panes["de"] = pn.pane.HoloViews(de_map, css_classes=["camsim-de"], linked_axes=True)
-
-        def show_hist(data):
-            values, label = data
-            values = values[np.isfinite(values)]
-            edges = np.linspace(0, 30, 61)
-            counts, _ = np.histogram(np.clip(values, 0, 30), edges)
-            hist = hv.Histogram((edges, counts), kdims=[hv.Dimension("dE_hist", label=f"{label} (values above 30 in the last bin)")], vdims=["pixels"])
-            mean = float(values.mean()) if values.size else 0.0
-            med = float(np.median(values)) if values.size else 0.0
-            return (hist * hv.VLine(mean).opts(color="red") * hv.VLine(med).opts(color="orange", line_dash="dashed")).opts(
-                title=f"{label}: mean {mean:.2f}, median {med:.2f}")
-
-        hist = hv.DynamicMap(show_hist, streams=[self.hist_pipe]).opts(
-            hv.opts.Histogram(frame_height=200, frame_width=290, color="#4c78a8", framewise=True, axiswise=True))
-        self.panes["hist"] = pn.pane.HoloViews(hist, css_classes=["camsim-hist"], linked_axes=False)
-        self.stats = pn.pane.Markdown("", css_classes=["camsim-stats"], margin=(0, 10))
+        self.shape = (233, 372)
+        h, w = self.shape
+        self.x_range, self.y_range = Range1d(0, w), Range1d(0, h)
+        blank = np.zeros(self.shape, np.uint32)
+        self.sources, self.figures, self.labels, self.panes = {}, {}, {}, {}
+        self._shown = {}
+        for key in self.KEYS:
+            fig = _image_figure(self.x_range, self.y_range, f"camsim-{key}-figure", self.shape)
+            fig.css_classes = [f"camsim-{key}-plot"]
+            cols = dict(image=[blank], x=[0], y=[0], dw=[w], dh=[h])
+            if key == "raw":
+                cols.update(value=[np.zeros(self.shape, np.float32)], sensor=[np.zeros(self.shape, np.uint8)])
+            if key == "de":
+                cols["image"] = [np.zeros(self.shape, np.float32)]
+            src = ColumnDataSource(cols)
+            if key == "de":
+                self.mapper = LinearColorMapper(palette=Inferno256, low=DE_RANGE[0], high=DE_RANGE[1])
+                r = fig.image(image="image", x="x", y="y", dw="dw", dh="dh", source=src, color_mapper=self.mapper)
+                tips = [("dE", "@image{0.00}")]
+            else:
+                r = fig.image_rgba(image="image", x="x", y="y", dw="dw", dh="dh", source=src)
+                if key == "raw":
+                    self.sensor_hover = CustomJSHover(args=dict(names=["?"]), code="return names[value] || value;")
+                    tips = [("digital value", "@value{0.[00]}"), ("sensor", "@sensor{custom}")]
+                else:
+                    tips = [("monitor R, G, B", "@image{custom}")]
+            fmt = {"@sensor": self.sensor_hover} if key == "raw" else ({"@image": _RGB_HOVER} if key != "de" else {})
+            fig.add_tools(HoverTool(renderers=[r], tooltips=[("x, y", "$x{0}, $y{0}")] + tips, formatters=fmt))
+            self.sources[key], self.figures[key] = src, fig
+            self.labels[key] = _label(self.TITLES.get(key, "dE map"), f"camsim-{key}-label")
+            parts = [self.labels[key], pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
+            if key == "de":
+                parts.append(pn.pane.Bokeh(_colorbar(self.mapper, "dE", "camsim-de-colorbar"), sizing_mode="stretch_width"))
+            self.panes[key] = pn.Column(*parts, css_classes=[f"camsim-{key}", "camsim-view"], sizing_mode="stretch_width")
+        # the histogram keeps its own axes, refitted to each result
+        self.hist_source = ColumnDataSource(dict(left=[0.0], right=[1.0], top=[0]))
+        hist = figure(height=240, sizing_mode="stretch_width", tools="", toolbar_location=None,
+                      x_range=DataRange1d(start=0), y_range=DataRange1d(start=0), name="camsim-hist-figure",
+                      x_axis_label="dE (values above the last bin counted in it)", y_axis_label="pixels")
+        hist.quad(left="left", right="right", top="top", bottom=0, source=self.hist_source, color="#4c78a8")
+        self.mean_span = Span(location=0, dimension="height", line_color="red", line_width=2)
+        self.median_span = Span(location=0, dimension="height", line_color="orange", line_dash="dashed", line_width=2)
+        hist.add_layout(self.mean_span)
+        hist.add_layout(self.median_span)
+        self.hist_figure = hist
+        self.labels["hist"] = _label("dE histogram", "camsim-hist-label")
+        self.panes["hist"] = pn.Column(self.labels["hist"], pn.pane.Bokeh(hist, sizing_mode="stretch_width"),
+                                       css_classes=["camsim-hist"], sizing_mode="stretch_width")
+        self.stats = pn.pane.Markdown("", css_classes=["camsim-stats"], margin=(0, 10), sizing_mode="stretch_width")
+        self.warnings = pn.pane.Markdown("", css_classes=["camsim-warnings"], margin=(0, 10),
+                                         sizing_mode="stretch_width")
         self.status = pn.pane.Str("", css_classes=["camsim-status"], sizing_mode="stretch_width",
                                   styles={"font-size": "10px", "white-space": "pre-wrap", "word-break": "break-all"},
                                   stylesheets=["pre { white-space: pre-wrap; word-break: break-all; }"])
-        state.param.watch(lambda e: self.update(), ["result", "metric"])
+        state.param.watch(lambda e: self.update(), ["result", "metric", "de_scale"])
+        state.param.watch(lambda e: self.show_computing(), ["computing", "message"])
         self.update()
+
+    # -- pieces -------------------------------------------------------------
+    def fit(self):
+        """Show the whole image in every view (after a change of size, or on request)."""
+        h, w = self.shape
+        self.x_range.update(start=0, end=w)
+        self.y_range.update(start=0, end=h)
+
+    def _send(self, key, image, **extra):
+        h, w = image.shape[:2]
+        self.sources[key].data = dict(image=[image], x=[0], y=[0], dw=[w], dh=[h], **extra)
+
+    def _resize(self, shape):
+        if tuple(shape) == self.shape:
+            return
+        self.shape = tuple(shape)
+        for fig in self.figures.values():
+            fig.aspect_ratio = shape[1] / shape[0]
+        self.fit()
+
+    def _changed(self, key, obj):
+        """True when ``obj`` (a step's output, re-used by the cache when unchanged) is new for view ``key``."""
+        if self._shown.get(key) is obj and obj is not None:
+            return False
+        self._shown[key] = obj
+        return True
 
     def update(self):
         res = self.state.result
         if res is None or res.raw is None:
             return
         raw = res.raw
+        self._resize(raw.data.shape[:2])
+        if self._changed("raw", raw):
+            data = np.asarray(raw.data)
+            value = (data if data.ndim == 2 else data[..., 0]).astype(np.float32)[::-1]
+            if raw.mosaiced and raw.tile is not None and np.ndim(raw.tile) == 2:
+                sensor = tile_index_map(raw.tile, data.shape[:2]).astype(np.uint8)[::-1]
+                self.sensor_hover.args = dict(names=list(raw.sensor_names or ()))
+            else:  # full colour: every pixel has every sensor; show the first plane's value
+                sensor = np.zeros(data.shape[:2], np.uint8)
+                names = list(raw.sensor_names or ())
+                self.sensor_hover.args = dict(names=[f"{names[0] if names else '0'} (all {len(names)} at every pixel)"])
+            self._send("raw", rgba32(raw_rgb(raw)), value=[np.ascontiguousarray(value)],
+                       sensor=[np.ascontiguousarray(sensor)])
+        skipped = "demosaic" in getattr(res, "skipped", {})
+        self.labels["demosaiced"].object = ("Demosaicing not needed (full-colour image): the sensor planes"
+                                            if skipped else f"Demosaiced ({self.state.shown.get('demosaic_method', '')})")
         shape = raw.data.shape[:2]
-        self.pipes["raw"].send((raw_rgb(raw), self.TITLES["raw"]))
-        self.pipes["demosaiced"].send(
-            (planes_rgb(res.demosaiced) if res.demosaiced is not None else _blank(shape),
-             self.TITLES["demosaiced"] + ("" if res.demosaiced is not None else " (not available)")))
-        for key, img in (("rendered", res.rendered), ("ideal", res.ideal)):
-            self.pipes[key].send(
-                (monitor_rgb(img) if img is not None else _blank(shape),
-                 self.TITLES[key] + ("" if img is not None else " (not available)")))
+        if self._changed("demosaiced", res.demosaiced):
+            self._send("demosaiced", rgba32(planes_rgb(res.demosaiced)) if res.demosaiced is not None
+                       else _unavailable(shape))
+        for key in ("rendered", "ideal"):
+            img = getattr(res, key)
+            if self._changed(key, img):
+                self._send(key, rgba32(monitor_u8(img)) if img is not None else _unavailable(shape))
+            self.labels[key].object = self.TITLES[key] + ("" if img is not None else " (not available)")
         de, label = self.error_map(res)
+        mean = med = None
         if de is not None:
-            self.de_pipe.send((np.asarray(de, float), f"{label} dE map"))
-            self.hist_pipe.send((np.asarray(de, float).ravel(), f"{label} dE"))
+            de = np.asarray(de, float)
+            lo, hi = de_range(de, self.state.de_scale)
+            self.mapper.update(low=lo, high=hi)
+            if self._changed("de", de):
+                self._send("de", np.ascontiguousarray(de[::-1].astype(np.float32)))
+                edges, counts, top = histogram(de)
+                self.hist_source.data = dict(left=edges[:-1], right=edges[1:], top=counts)
             mean, med = float(np.nanmean(de)), float(np.nanmedian(de))
-            steps = [n.removeprefix("stage:") for n, _ in res.ran]
-            view = (f" · viewing {self.state.viewing}, {res.samples_per_degree:.4g} samples/deg"
-                    if label == "S-CIELAB" and res.samples_per_degree else "")
-            self.stats.object = (f"**{label}** mean dE **{mean:.2f}** · median **{med:.2f}**{view} · engine "
-                                 f"{1000 * res.seconds:.0f} ms ({', '.join(steps) or 'nothing re-run'})")
+            self.mean_span.location, self.median_span.location = mean, med
+            scale = "colours 0 to the 99.5th percentile" if self.state.de_scale == "data" else "fixed colours 0-20"
+            self.labels["de"].object = f"{label} dE map ({scale}; 0 = identical to the ideal image)"
+            self.labels["hist"].object = (f"{label} dE histogram: <span style='color:red'>mean {mean:.2f}</span>, "
+                                          f"<span style='color:#d08000'>median {med:.2f}</span>")
         else:
-            mean = med = None
-            self.de_pipe.send((np.zeros(shape), "dE map (not available)"))
-            self.stats.object = "dE not available"
+            self.labels["de"].object = "dE map (not available)"
+            if self._changed("de", None):
+                self._send("de", np.full(shape, np.nan, np.float32))
+        self.res_summary = (label, mean, med)
+        self.show_computing()
+
+    def show_computing(self):
+        """Stats, warnings and the status pane; panes marked as loading while a newer result is computed."""
+        res = self.state.result
+        busy = bool(self.state.computing)
+        for key in ("raw", "demosaiced", "rendered", "ideal", "de", "hist"):
+            self.panes[key].loading = busy
+        if res is None or res.raw is None:
+            return
+        label, mean, med = getattr(self, "res_summary", (self.state.metric, None, None))
+        steps = [n.removeprefix("stage:") for n, _ in res.ran]
+        head = "**Computing the new result...** (the images below are the previous one) · " if busy else ""
+        if mean is None:
+            self.stats.object = head + "dE not available"
+        else:
+            view = (f" · viewing {self.state.viewing}, {res.samples_per_degree:.4g} samples/deg"
+                    if label == "S-CIELAB" and getattr(res, "samples_per_degree", None) else "")
+            self.stats.object = (f"{head}**{label}** mean dE **{mean:.2f}** · median **{med:.2f}**{view} · engine "
+                                 f"{1000 * res.seconds:.0f} ms ({', '.join(steps) or 'nothing re-run'})")
+        clipped, dark = exposure_warnings(res.raw)
+        notes = []
+        if clipped > 0.01:
+            notes.append(f"⚠ {100 * clipped:.1f} % of pixels are clipped (at full scale): lower the exposure")
+        if dark > 0.25:
+            notes.append(f"⚠ {100 * dark:.0f} % of pixels are in the lowest 2 % of the digital range: "
+                         "under-exposed (try Auto exposure)")
+        self.warnings.object = (" · ".join(notes) or
+                                f"Clipped {100 * clipped:.1f} % · in the lowest 2 % of levels {100 * dark:.1f} %")
         self.status.object = json.dumps({
-            "params": self.state.to_dict(),
+            "params": getattr(res, "params", self.state.to_dict()),
+            "computing": busy,
             "mean_de": None if mean is None else round(mean, 4),
             "median_de": None if med is None else round(med, 4),
             "metric": label,
-            "samples_per_degree": res.samples_per_degree if label == "S-CIELAB" else None,
-            "raw_hash": digest(raw.data),
+            "raw_hash": digest(res.raw.data),
             "rendered_hash": digest(res.rendered),
-            "tile": None if raw.tile is None else np.asarray(raw.tile).tolist(),
-            "shape": list(shape),
+            "tile": None if res.raw.tile is None else np.asarray(res.raw.tile).tolist(),
+            "shape": list(res.raw.data.shape[:2]),
+            "skipped": sorted(getattr(res, "skipped", {})),
+            "errors": res.errors,
             "ran": [[name, round(t * 1000, 2)] for name, t in res.ran],
             "engine_ms": round(res.seconds * 1000, 2),
+            "clipped": round(clipped, 4), "dark": round(dark, 4),
+            "message": self.state.message,
         }, separators=(",", ":"))
 
     def error_map(self, res):
@@ -274,31 +455,73 @@ class ResultsView:
 
 # -- the scene: one plane, sRGB, spectra of clicked pixels, metadata -------
 class SceneView:
+    """The scene before the camera: sRGB and one plane side by side (sharing zoom), spectra of
+    clicked pixels (numbered markers in their curve's colour) and of box-selected regions."""
+
     MAX_SPECTRA = 6
+    COLORS = Category10[10]
+    UNIT = "W/sr/m² per band"
 
     def __init__(self, state):
         self.state = state
-        self.rgb_pipe = streams.Pipe(data=np.zeros((2, 2, 3)))
-        self.plane_pipe = streams.Pipe(data=(np.zeros((2, 2)), "plane"))
-        opts = dict(frame_width=380, data_aspect=1, xaxis=None, yaxis=None, toolbar="above")
-        kd = ["scene_x", "scene_y"]
-        rgb = hv.DynamicMap(lambda data: hv.RGB(data, kdims=kd, bounds=_bounds(data.shape)), streams=[self.rgb_pipe])
-        rgb = rgb.opts(hv.opts.RGB(title="Scene (sRGB): click pixels for spectra", tools=["tap"], **opts))
-        self.tap = streams.Tap(source=rgb, x=None, y=None)
-        self.tap.add_subscriber(self.on_tap)
-        plane = hv.DynamicMap(lambda data: hv.Image(data[0], kdims=kd, bounds=_bounds(data[0].shape)).opts(title=data[1]),
-                              streams=[self.plane_pipe])
-        plane = plane.opts(hv.opts.Image(cmap="gray", clim=(0, 1), **opts))
-        self.spectra = []
-        self.rgb_pane = pn.pane.HoloViews(rgb, css_classes=["camsim-scene-rgb"], linked_axes=True)
-        self.plane_pane = pn.pane.HoloViews(plane, css_classes=["camsim-scene-plane"], linked_axes=True)
-        self.spectrum_pane = pn.pane.HoloViews(self.spectrum_plot(), css_classes=["camsim-spectra"], linked_axes=False)
-        self.meta = pn.pane.Markdown("", css_classes=["camsim-scene-meta"])
+        self.shape = (2, 2)
+        self.x_range, self.y_range = Range1d(0, 2), Range1d(0, 2)
+        self.rgb_source = ColumnDataSource(dict(image=[np.zeros((2, 2), np.uint32)], x=[0], y=[0], dw=[2], dh=[2]))
+        self.plane_source = ColumnDataSource(dict(image=[np.zeros((2, 2), np.float32)], x=[0], y=[0], dw=[2], dh=[2]))
+        self.marks = ColumnDataSource(dict(x=[], y=[], text=[], color=[], w=[], h=[]))
+        self.plane_mapper = LinearColorMapper(palette=Greys256[::-1], low=0, high=1)
+        self.figures = {}
+        for key in ("rgb", "plane"):
+            fig = _image_figure(self.x_range, self.y_range, f"camsim-scene-{key}-figure", self.shape)
+            fig.add_tools(TapTool(), BoxSelectTool())
+            if key == "rgb":
+                r = fig.image_rgba(image="image", x="x", y="y", dw="dw", dh="dh", source=self.rgb_source)
+                fig.add_tools(HoverTool(renderers=[r], tooltips=[("x, y", "$x{0}, $y{0}"), ("sRGB", "@image{custom}")],
+                                        formatters={"@image": _RGB_HOVER}))
+            else:
+                r = fig.image(image="image", x="x", y="y", dw="dw", dh="dh", source=self.plane_source,
+                              color_mapper=self.plane_mapper)
+                fig.add_tools(HoverTool(renderers=[r], tooltips=[("x, y", "$x{0}, $y{0}"),
+                                                                 (f"radiance ({self.UNIT})", "@image{0.0000}")]))
+            fig.rect(x="x", y="y", width="w", height="h", source=self.marks, fill_alpha=0.25, fill_color="color",
+                     line_color="color", line_width=2)
+            fig.text(x="x", y="y", text="text", source=self.marks, text_color="color", text_font_size="14pt",
+                     text_font_style="bold", x_offset=6, y_offset=-4, text_outline_color="white")
+            fig.on_event(Tap, self._on_tap)
+            fig.on_event(SelectionGeometry, self._on_box)
+            self.figures[key] = fig
+        self.spectra = []  # (scene, row0, row1, col0, col1)
+        self.curves = ColumnDataSource(dict(xs=[], ys=[], color=[], label=[]))
+        spec = figure(height=280, sizing_mode="stretch_width", tools="pan,wheel_zoom,reset", toolbar_location="right",
+                      x_axis_label="Wavelength (nm)", y_axis_label=f"Radiance ({self.UNIT})",
+                      name="camsim-spectra-figure", x_range=DataRange1d(), y_range=DataRange1d(start=0))
+        spec.multi_line(xs="xs", ys="ys", line_color="color", line_width=2, source=self.curves,
+                        legend_field="label")
+        spec.legend.location = "top_left"
+        spec.legend.background_fill_alpha = 0.6
+        spec.add_layout(spec.legend[0], "right")
+        self.wl_span = Span(location=550, dimension="height", line_color="black", line_dash="dotted", line_width=2)
+        spec.add_layout(self.wl_span)
+        self.spectrum_figure = spec
+        self.rgb_label = _label("Scene (sRGB): click a pixel, or drag a box (box select) for a region's mean",
+                                "camsim-scene-rgb-label")
+        self.plane_label = _label("Radiance at 550 nm", "camsim-scene-plane-label")
+        self.rgb_pane = pn.Column(self.rgb_label, pn.pane.Bokeh(self.figures["rgb"], sizing_mode="stretch_width"),
+                                  css_classes=["camsim-scene-rgb", "camsim-view"], sizing_mode="stretch_width")
+        self.plane_pane = pn.Column(self.plane_label, pn.pane.Bokeh(self.figures["plane"], sizing_mode="stretch_width"),
+                                    pn.pane.Bokeh(_colorbar(self.plane_mapper, f"radiance ({self.UNIT})",
+                                                            "camsim-plane-colorbar"), sizing_mode="stretch_width"),
+                                    css_classes=["camsim-scene-plane", "camsim-view"], sizing_mode="stretch_width")
+        self.spectrum_pane = pn.Column(
+            _label("Spectra of clicked pixels and regions (dotted: the wavelength shown)", "camsim-spectra-label"),
+            pn.pane.Bokeh(spec, sizing_mode="stretch_width"), css_classes=["camsim-spectra"], sizing_mode="stretch_width")
+        self.meta = pn.pane.Markdown("", css_classes=["camsim-scene-meta"], sizing_mode="stretch_width")
         self.clear = pn.widgets.Button(name="Clear spectra", css_classes=["w-clear-spectra"], width=120)
         self.clear.on_click(lambda e: self.reset_spectra())
         self.wavelength = pn.widgets.DiscreteSlider(name="Wavelength (nm)", options=[550.0], value=550.0,
                                                     css_classes=["w-wavelength"], width=280)
         self.wavelength.param.watch(lambda e: setattr(state, "wavelength", float(e.new)), "value")
+        self._scene = None
         state.param.watch(lambda e: self.update(), ["scene", "wavelength"])
         self.update()
 
@@ -318,14 +541,31 @@ class SceneView:
         k = int(np.argmin(np.abs(np.asarray(wls) - float(self.state.wavelength))))
         if self.wavelength.value != wls[k]:
             self.wavelength.value = wls[k]
-        self.rgb_pipe.send(scene_srgb(scene))
-        plane = scene.data[:, :, k]
-        self.plane_pipe.send((_normalise(plane, None), f"Radiance at {wls[k]:g} nm"))
-        d = scene.describe() if hasattr(scene, "describe") else {}
-        rows = [f"| {k} | {v} |" for k, v in d.items() if k not in ("comments",)]
-        self.meta.object = "| | |\n|---|---|\n" + "\n".join(rows)
-        if self.spectra and self.spectra[0][0] is not scene:
+        h, w = scene.data.shape[:2]
+        if scene is not self._scene:
+            self._scene = scene
+            if (h, w) != self.shape:
+                self.shape = (h, w)
+                for fig in self.figures.values():
+                    fig.aspect_ratio = w / h
+            self.x_range.update(start=0, end=w)
+            self.y_range.update(start=0, end=h)
+            self.rgb_source.data = dict(image=[rgba32(scene_srgb(scene))], x=[0], y=[0], dw=[w], dh=[h])
+            d = scene.describe() if hasattr(scene, "describe") else {}
+            rows = [f"| {key} | {v} |" for key, v in d.items() if key not in ("comments",)]
+            self.meta.object = "| | |\n|---|---|\n" + "\n".join(rows)
             self.reset_spectra()
+        plane = np.asarray(scene.data[:, :, k], np.float32)
+        top = float(np.percentile(plane, 99.5)) or float(plane.max()) or 1.0
+        self.plane_mapper.update(low=0.0, high=top)
+        self.plane_source.data = dict(image=[np.ascontiguousarray(plane[::-1])], x=[0], y=[0], dw=[w], dh=[h])
+        self.plane_label.object = (f"Radiance at {wls[k]:g} nm ({self.UNIT}; grey scale from 0 to this plane's "
+                                   f"99.5th percentile, {top:.3g})")
+        self.wl_span.location = wls[k]
+
+    # clicks and boxes, in scene pixels (x right, y up from the bottom edge)
+    def _on_tap(self, event):
+        self.on_tap(event.x, event.y)
 
     def on_tap(self, x=None, y=None):
         scene = self.scene()
@@ -335,29 +575,82 @@ class SceneView:
         col, row = int(np.floor(x)), int(h - 1 - np.floor(y))
         if not (0 <= row < h and 0 <= col < w):
             return
-        self.spectra = (self.spectra + [(scene, row, col)])[-self.MAX_SPECTRA:]
-        self.spectrum_pane.object = self.spectrum_plot()
+        self._add(scene, row, row + 1, col, col + 1)
+
+    def _on_box(self, event):
+        g = event.geometry or {}
+        if g.get("type") != "rect" or not getattr(event, "final", True):
+            return
+        scene = self.scene()
+        if scene is None:
+            return
+        h, w = scene.data.shape[:2]
+        c0, c1 = sorted((g["x0"], g["x1"]))
+        r_lo, r_hi = sorted((g["y0"], g["y1"]))
+        col0, col1 = max(0, int(np.floor(c0))), min(w, int(np.ceil(c1)))
+        row0, row1 = max(0, int(h - np.ceil(r_hi))), min(h, int(h - np.floor(r_lo)))
+        if col1 > col0 and row1 > row0:
+            self._add(scene, row0, row1, col0, col1)
+
+    def _add(self, scene, row0, row1, col0, col1):
+        self.spectra = (self.spectra + [(scene, row0, row1, col0, col1)])[-self.MAX_SPECTRA:]
+        self._draw()
 
     def reset_spectra(self):
         self.spectra = []
-        self.spectrum_pane.object = self.spectrum_plot()
+        self._draw()
 
-    def spectrum_plot(self):
-        curves = [hv.Curve([], "Wavelength (nm)", "Radiance (W/sr/m^2 per band)")]
-        for scene, row, col in self.spectra:
-            curves.append(hv.Curve((scene.wavelengths, scene.data[row, col]), "Wavelength (nm)",
-                                   "Radiance (W/sr/m^2 per band)", label=f"pixel ({row}, {col})"))
-        return hv.Overlay(curves).opts(frame_height=220, frame_width=360, title="Spectra of clicked pixels",
-                                       legend_position="top_right", show_legend=True)
+    def _draw(self):
+        xs, ys, colors, labels, mx, my, mt, mc, mw, mh = [], [], [], [], [], [], [], [], [], []
+        for i, (scene, r0, r1, c0, c1) in enumerate(self.spectra):
+            h = scene.data.shape[0]
+            color = self.COLORS[i % len(self.COLORS)]
+            xs.append(np.asarray(scene.wavelengths, float))
+            ys.append(scene.data[r0:r1, c0:c1].reshape(-1, scene.data.shape[2]).mean(axis=0))
+            colors.append(color)
+            single = (r1 - r0) * (c1 - c0) == 1
+            labels.append(f"{i + 1}: pixel ({r0}, {c0})" if single else
+                          f"{i + 1}: mean of rows {r0}-{r1 - 1}, columns {c0}-{c1 - 1}")
+            mx.append((c0 + c1) / 2)
+            my.append(h - (r0 + r1) / 2)
+            mt.append(str(i + 1))
+            mc.append(color)
+            mw.append(max(c1 - c0, 1))
+            mh.append(max(r1 - r0, 1))
+        self.curves.data = dict(xs=xs, ys=ys, color=colors, label=labels)
+        self.marks.data = dict(x=mx, y=my, text=mt, color=mc, w=mw, h=mh)
 
 
 # -- the camera: sensor curves and mosaic tile -------------------------------
 class CameraView:
+    """Sensor curves and the mosaic tile of the camera shown; redrawn only when those change."""
+
     def __init__(self, state):
         self.state = state
-        self.curves = pn.pane.HoloViews(hv.Curve([]), css_classes=["camsim-sensors"], linked_axes=False)
-        self.tile = pn.pane.HoloViews(hv.RGB(np.zeros((2, 2, 3))), css_classes=["camsim-tile"], linked_axes=False)
-        self.info = pn.pane.Markdown("", css_classes=["camsim-camera-info"])
+        self._key = None
+        self.curve_source = ColumnDataSource(dict(xs=[], ys=[], color=[], label=[]))
+        fig = figure(height=300, sizing_mode="stretch_width", tools="pan,wheel_zoom,reset", toolbar_location="right",
+                     x_axis_label="Wavelength (nm)", y_axis_label="Sensitivity", name="camsim-sensors-figure",
+                     x_range=DataRange1d(), y_range=DataRange1d(start=0))
+        fig.multi_line(xs="xs", ys="ys", line_color="color", line_width=3, source=self.curve_source,
+                       legend_field="label")
+        fig.add_layout(fig.legend[0], "right")
+        self.curve_figure = fig
+        self.tile_source = ColumnDataSource(dict(x=[], y=[], color=[], text=[]))
+        tile = figure(width=260, height=260, tools="", toolbar_location=None, name="camsim-tile-figure",
+                      x_range=Range1d(0, 2), y_range=Range1d(0, 2), min_border=10, match_aspect=True)
+        tile.rect(x="x", y="y", width=1, height=1, fill_color="color", line_color="white", source=self.tile_source)
+        tile.text(x="x", y="y", text="text", source=self.tile_source, text_align="center", text_baseline="middle",
+                  text_font_size="12pt", text_color="black")
+        tile.axis.visible = False
+        tile.grid.visible = False
+        self.tile_figure = tile
+        self.title = _label("Sensors", "camsim-sensors-label")
+        self.tile_label = _label("Mosaic tile", "camsim-tile-label")
+        self.curves = pn.Column(self.title, pn.pane.Bokeh(fig, sizing_mode="stretch_width"),
+                                css_classes=["camsim-sensors"], sizing_mode="stretch_width")
+        self.tile = pn.Column(self.tile_label, pn.pane.Bokeh(tile), css_classes=["camsim-tile"], width=280)
+        self.info = pn.pane.Markdown("", css_classes=["camsim-camera-info"], sizing_mode="stretch_width")
         state.param.watch(lambda e: self.update(), ["result"])
         self.update()
 
@@ -366,31 +659,34 @@ class CameraView:
         if res is None:
             return
         cam = res.camera
-        wls = cam.sensors.wavelengths
-        colors = sensor_colors(cam.sensors.values, wls, cam.sensors.names)
-        curves = [hv.Curve((wls, v), "Wavelength (nm)", "Sensitivity", label=n).opts(color=_hex(c))
-                  for v, n, c in zip(cam.sensors.values, cam.sensors.names, colors)]
-        self.curves.object = hv.Overlay(curves).opts(frame_height=220, frame_width=360,
-                                                     title=f"Sensors: {cam.sensors.name or cam.name}")
-        self.tile.object = tile_plot(cam.mosaic, colors, cam.sensors.names)
         self.info.object = (f"**{cam.name}** · {len(cam.sensors)} sensors · image {res.raw.data.shape[0]} x "
                             f"{res.raw.data.shape[1]} px at {cam.distance} m · {cam.exposure:g} s f/{cam.f_stop:g}")
-
-
-def tile_plot(tile, colors, names):
-    """The mosaic tile as a coloured grid labelled with sensor names (0-based indices)."""
-    if tile is None:
-        return hv.Text(0.5, 0.5, "no mosaic: every pixel has every sensor").opts(
-            frame_height=160, frame_width=200, xaxis=None, yaxis=None, title="Mosaic tile")
-    t = np.asarray(tile)
-    if t.ndim == 3:
-        t = t[..., 0]
-    n, m = t.shape
-    rgb = colors[t]
-    labels = hv.Labels([(j + 0.5, n - i - 0.5, f"{t[i, j]}:{names[t[i, j]]}") for i in range(n) for j in range(m)])
-    grid = hv.RGB(rgb, bounds=(0, 0, m, n))
-    return (grid * labels.opts(text_color="black", text_font_size="11pt")).opts(
-        hv.opts.RGB(frame_height=40 * n + 80, data_aspect=1, xaxis=None, yaxis=None, title="Mosaic tile", toolbar=None))
+        key = (fingerprint(cam.sensors), fingerprint(cam.mosaic))
+        if key == self._key:
+            return
+        self._key = key
+        wls = np.asarray(cam.sensors.wavelengths, float)
+        colors = sensor_colors(cam.sensors.values, wls, cam.sensors.names)
+        names = list(cam.sensors.names)
+        self.curve_source.data = dict(xs=[wls] * len(names), ys=[np.asarray(v, float) for v in cam.sensors.values],
+                                      color=[_hex(c) for c in colors], label=names)
+        self.title.object = f"Sensors: {cam.sensors.name or cam.name}"
+        t = None if cam.mosaic is None else np.asarray(cam.mosaic)
+        if t is None:
+            self.tile_label.object = "No mosaic: every pixel has every sensor"
+            self.tile_source.data = dict(x=[0.5], y=[0.5], color=["#dddddd"], text=["all sensors"])
+            n = m = 1
+        else:
+            if t.ndim == 3:
+                t = t[..., 0]
+            n, m = t.shape
+            self.tile_label.object = f"Mosaic tile ({n} x {m}; index:name, 0-based)"
+            self.tile_source.data = dict(
+                x=[j + 0.5 for i in range(n) for j in range(m)], y=[n - i - 0.5 for i in range(n) for j in range(m)],
+                color=[_hex(colors[t[i, j]]) for i in range(n) for j in range(m)],
+                text=[f"{t[i, j]}:{names[t[i, j]]}" for i in range(n) for j in range(m)])
+        self.tile_figure.x_range.update(start=0, end=max(n, m))
+        self.tile_figure.y_range.update(start=0, end=max(n, m))
 
 
 def _hex(rgb):

@@ -12,7 +12,7 @@ The steps, in order:
 
 * one per stage of ``camera.architecture`` (by default ``sensor_responses``,
   ``resample``, ``mosaic``, ``noise``, ``digitize``);
-* ``demosaic``, ``render``, ``ideal`` (the ideal image of section 4.3),
+* ``demosaic`` (skipped for a full-colour image: nothing to demosaic), ``render``, ``ideal`` (the ideal image of section 4.3),
   ``xyz`` and ``ideal_xyz`` (both on the monitor), ``delta_e`` (CIELAB) and
   ``scielab`` (S-CIELAB) error maps.
 
@@ -91,7 +91,9 @@ class Result:
     ``raw`` is the simulated camera image; ``delta_e`` and ``scielab`` are
     (H, W) error maps in CIELAB Delta E units against the ideal image;
     ``ran`` lists ``(step, seconds)`` for the steps that were (re-)computed;
-    ``errors`` maps a failed step to its message.
+    ``errors`` maps a failed step to its message; ``skipped`` maps a step
+    that was not needed to the reason (a full-colour image is not
+    demosaiced: ``demosaiced`` is then ``raw`` itself).
     """
 
     scene: object = None
@@ -108,6 +110,7 @@ class Result:
     white: object = None
     ran: list = field(default_factory=list)
     errors: dict = field(default_factory=dict)
+    skipped: dict = field(default_factory=dict)
 
     @property
     def ran_steps(self):
@@ -225,9 +228,17 @@ class Pipeline:
         sim_token = token
 
         monitor = load_monitor(proc.monitor)
-        t_dem, result.demosaiced = self._step(
-            "demosaic", (sim_token, proc.demosaic), lambda: _demosaic(result.raw, proc.demosaic, demosaic), result
-        )
+        if getattr(result.raw, "mosaiced", True):
+            t_dem, result.demosaiced = self._step(
+                "demosaic", (sim_token, proc.demosaic), lambda: demosaic(result.raw, proc.demosaic), result
+            )
+        else:
+            # a full-colour image (no mosaic): every pixel has every sensor, so
+            # processing starts from the camera image itself (section 4.1 applies
+            # to mosaiced images only), whatever demosaicing method is chosen
+            self._memo.pop("demosaic", None)
+            t_dem, result.demosaiced = sim_token, result.raw
+            result.skipped["demosaic"] = "not needed: the image is not mosaiced (every pixel has every sensor)"
         t_ren = None
         if t_dem is not None:
             illum = proc.illuminant if proc.render == "illuminant" else None

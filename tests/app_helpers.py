@@ -15,7 +15,6 @@ import socket
 import subprocess
 import sys
 import time
-import urllib.request
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -23,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 ARTIFACTS = ROOT / "test-artifacts"
 CHROMIUM = os.environ.get("CAMSIM_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking"]
-TIMEOUT = 60.0
+TIMEOUT = 90.0  # generous: the machine running the tests may be shared
 
 
 def free_port():
@@ -54,10 +53,9 @@ def explorer_server(scene=None, extra_args=(), on_start=None):
         while True:
             if proc.poll() is not None:
                 raise RuntimeError(f"camsim serve exited with status {proc.returncode} (see {getattr(log, 'name', 'log')})")
-            try:
-                with urllib.request.urlopen(url, timeout=TIMEOUT) as r:  # a loaded machine may take seconds per page
-                    if r.status == 200:
-                        break
+            try:  # the port answers (a GET would open a session: slow on a loaded machine)
+                with socket.create_connection(("127.0.0.1", port), timeout=2):
+                    break
             except OSError:
                 pass
             if time.monotonic() > deadline:
@@ -92,14 +90,15 @@ class Page:
     def __init__(self, browser, url):
         self.page = browser.new_page(viewport={"width": 1500, "height": 1100})
         self.console = []
-        self.page.on("console", lambda m: self.console.append((m.type, m.text)))
+        self.page.set_default_timeout(TIMEOUT * 1000)
+        self.page.on("console", lambda m: self.console.append((m.type, f"{m.text} ({m.location.get('url', '')})")))
         self.page.on("pageerror", lambda e: self.console.append(("pageerror", str(e))))
         self.page.goto(url)
-        self.page.locator(".camsim-status pre").first.wait_for(timeout=TIMEOUT * 1000)
+        self.page.locator(".camsim-status pre").first.wait_for(state="attached", timeout=TIMEOUT * 1000)
         self.wait_for(lambda s: s.get("mean_de") is not None)
 
     def status(self):
-        text = self.page.locator(".camsim-status pre").first.inner_text()
+        text = self.page.locator(".camsim-status pre").first.text_content()
         try:
             return json.loads(text)
         except ValueError:
@@ -149,3 +148,44 @@ class Page:
 
     def close(self):
         self.page.close()
+
+
+def background_share(png_bytes, background=(255, 255, 255), tol=8):
+    """Share of the pixels of a screenshot (PNG bytes) within ``tol`` of the background colour."""
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    a = np.asarray(Image.open(io.BytesIO(png_bytes)).convert("RGB"), int)
+    return float(np.mean(np.all(np.abs(a - np.array(background)) <= tol, axis=-1)))
+
+
+#: The image views of the Results tab (CSS class camsim-KEY-plot holds each figure).
+IMAGE_VIEWS = ("raw", "demosaiced", "rendered", "ideal", "de")
+
+# JS: ranges and data extent of each named image figure
+FIGURES_JS = """() => {
+  const out = {};
+  for (const m of Bokeh.documents[0]._all_models.values()) {
+    if (m.name && m.name.startsWith('camsim-') && m.name.endsWith('-figure') && m.x_range) {
+      const r = m.renderers.find(g => g.data_source && g.data_source.data.dw);
+      const d = r ? r.data_source.data : null;
+      out[m.name] = {x: [m.x_range.start, m.x_range.end], y: [m.y_range.start, m.y_range.end],
+                     ranges: [m.x_range.id, m.y_range.id],
+                     dw: d ? d.dw[0] : null, dh: d ? d.dh[0] : null};
+    }
+  }
+  return out;
+}"""
+
+
+def figures(page):
+    return page.page.evaluate(FIGURES_JS)
+
+
+def loading_count(page):
+    """How many elements show Panel's loading state (class pn-loading), shadow roots included."""
+    return page.page.evaluate("""() => { let n = 0; function walk(root) {
+        for (const el of root.querySelectorAll('*')) { if (el.classList.contains('pn-loading')) n++;
+          if (el.shadowRoot) walk(el.shadowRoot); } } walk(document); return n; }""")

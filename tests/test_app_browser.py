@@ -1,10 +1,11 @@
-"""The explorer in a real browser (issue 5): Playwright drives the system Chromium
+"""The explorer in a real browser: Playwright drives the system Chromium
 against ``camsim serve`` started on 127.0.0.1. Screenshots go to ``test-artifacts/``.
 """
 
 import pytest
 
-from app_helpers import ARTIFACTS, CHROMIUM_ARGS, Page, chromium_path, explorer_server
+from app_helpers import (ARTIFACTS, CHROMIUM_ARGS, IMAGE_VIEWS, Page, background_share, chromium_path,
+                         explorer_server, figures, loading_count)
 
 pytestmark = pytest.mark.browser
 
@@ -158,22 +159,149 @@ def test_experiments_tab_runs_a_small_sweep(page):
     assert page.errors() == []
 
 
-_FIGURE_RANGES = """() => {
-  const out = {};
-  for (const m of Bokeh.documents[0]._all_models.values()) {
-    if (m.constructor && m.constructor.__name__ === 'Figure' && m.title) {
-      out[m.title.text] = [m.x_range.id, m.y_range.id];
-    }
-  }
-  return out;
-}"""
-
-
 def test_image_views_share_zoom_and_pan(page):
-    ranges = page.page.evaluate(_FIGURE_RANGES)
-    images = [v for k, v in ranges.items() if k.split(" (")[0] in
-              ("Raw mosaic", "Demosaiced", "Rendered", "Ideal image") or k.endswith("dE map")]
-    assert len(images) == 5, ranges
+    figs = figures(page)
+    images = [figs[f"camsim-{k}-figure"]["ranges"] for k in IMAGE_VIEWS]
+    assert len(images) == 5
     assert all(r == images[0] for r in images)  # one x range and one y range for all five: zoom and pan together
-    hist = [v for k, v in ranges.items() if k.startswith("CIELAB dE:")]
-    assert hist and hist[0] != images[0]  # the histogram keeps its own axes
+    assert figs["camsim-hist-figure"]["ranges"] != images[0]  # the histogram keeps its own axes
+
+
+# -- views follow the image ----------------------------------------------------
+def _assert_views_show_whole_image(page, tag):
+    s = page.status()
+    h, w = s["shape"]
+    figs = figures(page)
+    page.page.wait_for_timeout(300)  # let the canvases draw the data that arrived
+    for key in IMAGE_VIEWS:
+        f = figs[f"camsim-{key}-figure"]
+        assert (f["dw"], f["dh"]) == (w, h), (key, f)  # the data is the current image
+        assert f["x"] == [0, w] and f["y"] == [0, h], (key, f)  # and the view shows all of it
+        png = page.page.locator(f".camsim-{key}-plot").first.screenshot(path=str(ARTIFACTS / f"{tag}-{key}.png"))
+        assert background_share(png) < 0.5, f"{key} view mostly blank after {tag}"
+
+
+def test_distance_there_and_back_leaves_every_view_showing_the_whole_image(page):
+    page.type_number("w-distance", 0.5)
+    near = page.wait_for(lambda s: s["params"]["distance"] == 0.5 and not s["computing"], timeout=120)
+    assert near["shape"][0] > 233 * 4  # much closer: many more pixels
+    _assert_views_show_whole_image(page, "distance-0.5")
+    page.type_number("w-distance", 3.32)
+    back = page.wait_for(lambda s: s["params"]["distance"] == 3.32 and not s["computing"], timeout=120)
+    assert back["shape"] == [233, 372]
+    _assert_views_show_whole_image(page, "distance-3.32")
+    assert page.errors() == []
+
+
+def test_histogram_and_de_scale_follow_the_data(page):
+    js = """() => { const out = {}; for (const m of Bokeh.documents[0]._all_models.values()) {
+        if (m.type === 'LinearColorMapper' || (m.constructor && m.constructor.__name__ === 'LinearColorMapper'))
+          out[m.id] = m.high; } return out; }"""
+    s = page.status()
+    highs = list(page.page.evaluate(js).values())
+    assert any(abs(v - 20) > 0.5 for v in highs)  # not the fixed 0-20 scale by default
+    page.page.locator(".w-de-scale button", has_text="fixed").first.click()
+    page.page.wait_for_function("() => true")
+    page.page.wait_for_timeout(1500)
+    assert 20 in list(page.page.evaluate(js).values())
+    assert s["mean_de"] > 0
+
+
+# -- the page never lies --------------------------------------------------------
+def test_a_change_during_a_long_computation_ends_with_the_last_change(page):
+    page.type_number("w-distance", 0.5)  # a long computation (about 20 x the pixels)
+    page.page.wait_for_timeout(150)
+    page.type_number("w-noise", 7)  # made while it runs
+    seen_loading = seen_computing = False
+    deadline = 120
+    import time
+
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < deadline:
+        s = page.status()
+        seen_computing |= bool(s.get("computing"))
+        seen_loading |= loading_count(page) > 0
+        if s["params"]["distance"] == 0.5 and s["params"]["noise_sigma"] == 7 and not s["computing"]:
+            break
+        page.page.wait_for_timeout(100)
+    final = page.status()
+    assert final["params"]["distance"] == 0.5 and final["params"]["noise_sigma"] == 7 and not final["computing"]
+    assert seen_loading and seen_computing
+    assert loading_count(page) == 0
+    assert page.alert_text() == ""
+
+
+@pytest.mark.parametrize("css, value, name, kept", [
+    ("w-noise", 80, "noise sigma", "0"),
+    ("w-exposure", 100, "exposure", "0.1"),
+    ("w-fstop", 40, "f-stop", "11"),
+    ("w-distance", -1, "distance", "3.32"),
+    ("w-seed", -5, "seed", "0"),
+])
+def test_a_refused_value_gets_a_message_and_the_widget_returns(page, css, value, name, kept):
+    if css == "w-seed":  # the seed acts (and is enabled) only with noise
+        page.type_number("w-noise", 2)
+        page.wait_for(lambda s: s["params"]["noise_sigma"] == 2 and not s["computing"])
+    before = page.status()
+    page.type_number(css, value)
+    page.page.locator(".camsim-alert").first.wait_for(state="visible", timeout=30000)
+    text = page.alert_text()
+    assert "Refused" in text and name in text and str(value) in text
+    box = page.page.locator(f".{css} input").first
+    page.page.wait_for_function("([el, v]) => parseFloat(el.value) === parseFloat(v)",
+                                arg=[box.element_handle(), kept], timeout=10000)
+    assert page.status()["params"] == before["params"]
+
+
+# -- every camera and mosaic runs -------------------------------------------------
+@pytest.mark.parametrize("camera, mosaic", [("human-cones", "preset"), ("stockman-sharpe", "preset"),
+                                            ("cie1931", "preset"), ("kodak-dcs200-ir", "none")])
+def test_full_colour_cameras_run_without_demosaicing(page, camera, mosaic):
+    page.select("w-camera", camera)
+    page.select("w-mosaic", mosaic)
+    s = page.wait_for(lambda s: s["params"]["camera"] == camera and s["params"]["mosaic"] == mosaic
+                      and not s["computing"])
+    assert s["skipped"] == ["demosaic"] and s["tile"] is None and s["mean_de"] is not None
+    assert page.alert_text() == ""
+    page.page.wait_for_function("""() => { function deep(root) { for (const el of root.querySelectorAll('*')) {
+        if (el.tagName === 'LABEL' && el.textContent.includes('not needed')) return true;
+        if (el.shadowRoot && deep(el.shadowRoot)) return true; } return false; } return deep(document); }""",
+                                timeout=10000)
+    assert page.page.locator(".w-demosaic select").first.is_disabled()
+
+
+def test_a_refused_combination_puts_the_widgets_back(page):
+    page.select("w-demosaic", "malvar2004")
+    page.wait_for(lambda s: s["params"]["demosaic_method"] == "malvar2004")
+    page.select("w-camera", "gaussian-4")  # its 4-sensor grid is not a Bayer tile: malvar2004 refuses it
+    page.page.locator(".camsim-alert").first.wait_for(state="visible", timeout=60000)
+    assert "malvar2004" in page.alert_text()
+    page.page.wait_for_function("el => el.value === 'kodak-dcs200-ir'",
+                                arg=page.page.locator(".w-camera select").first.element_handle(), timeout=10000)
+    assert page.status()["params"]["camera"] == "kodak-dcs200-ir"
+
+
+# -- layout -------------------------------------------------------------------------
+@pytest.mark.parametrize("width, height", [(1366, 768), (1920, 1080)])
+def test_no_horizontal_scroll_and_images_use_the_width(page, width, height):
+    page.page.set_viewport_size({"width": width, "height": height})
+    page.page.wait_for_timeout(800)
+    page.shot(f"layout-{width}")
+    assert page.page.evaluate("document.documentElement.scrollWidth") <= width
+    boxes = [page.page.locator(f".camsim-{k}-plot").first.bounding_box() for k in IMAGE_VIEWS]
+    assert sum(b["width"] for b in boxes[:3]) > 0.55 * width  # three views per row fill the main area
+    assert all(b["x"] + b["width"] <= width for b in boxes)
+
+
+def test_presentation_mode_has_large_type_and_images(page):
+    page.page.set_viewport_size({"width": 1366, "height": 768})
+    small = page.page.locator(".camsim-rendered-plot").first.bounding_box()["width"]
+    page.page.locator(".w-present button").first.click()
+    page.page.wait_for_timeout(1500)
+    page.shot("presentation-mode")
+    size = lambda sel: float(page.page.locator(sel).first.evaluate("e => parseFloat(getComputedStyle(e).fontSize)"))
+    assert size(".camsim-stats p") >= 18
+    assert size(".camsim-rendered-label div") >= 18 or size(".camsim-rendered-label") >= 18
+    assert size(".w-noise label") >= 18
+    assert page.page.locator(".camsim-rendered-plot").first.bounding_box()["width"] > 1.3 * small
+    assert page.page.evaluate("document.documentElement.scrollWidth") <= 1366

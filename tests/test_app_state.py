@@ -200,3 +200,133 @@ def test_viewing_is_a_state_parameter_that_sets_scielab_samples_per_degree(state
     assert state.to_dict()["viewing"] == "camera/10"  # carried by the URL and the parameter file
     state.viewing = "sideways"
     assert "viewing" in state.message
+
+
+# -- background computation, refusals, warnings ---------------------------------
+import threading  # noqa: E402
+import time  # noqa: E402
+
+from app.state import Runner, exposure_warnings  # noqa: E402
+from app.views import de_range, histogram, rgba32  # noqa: E402
+
+
+def test_runner_computes_only_the_newest_request():
+    release, started = threading.Event(), threading.Event()
+    computed, delivered = [], []
+
+    def compute(job):
+        computed.append(job)
+        if job == 1:
+            started.set()
+            release.wait(10)
+        return job * 10
+
+    runner = Runner(compute, lambda job, out: delivered.append((job, out)))
+    runner.submit(1)
+    assert started.wait(10)
+    runner.submit(2)  # queued behind 1 ...
+    runner.submit(3)  # ... and superseded by 3
+    release.set()
+    for _ in range(200):
+        if not runner.busy:
+            break
+        time.sleep(0.01)
+    assert computed == [1, 3]  # 2 never computed
+    assert delivered == [(3, 30)]  # 1's outcome was obsolete when it finished
+
+
+def _background_state():
+    state = ExplorerState(start=False)
+    state.set_runner(Runner(state._compute, state._apply))  # deliver in the worker: no event loop here
+    state.recompute()
+    _wait_idle(state)
+    return state
+
+
+def _wait_idle(state, timeout=120):
+    t0 = time.monotonic()
+    while (state.computing or state.runner.busy) and time.monotonic() - t0 < timeout:
+        time.sleep(0.02)
+    assert not state.computing
+
+
+def test_a_change_during_a_computation_supersedes_it():
+    state = _background_state()
+    state.distance = 0.5  # a long computation
+    assert state.computing  # the page can show "computing" at once
+    state.noise_sigma = 7.0
+    state.seed = 3
+    _wait_idle(state)
+    assert state.result.params["distance"] == 0.5 and state.result.params["noise_sigma"] == 7.0
+    assert state.result.params["seed"] == 3 and state.shown == state.design_params()
+    assert state.result.camera.noise_sigma == 7.0 and state.result.camera.distance == 0.5
+
+
+@pytest.mark.parametrize("name, value, words", [
+    ("noise_sigma", 80, "noise sigma 80"), ("exposure", 100, "exposure (s) 100"), ("f_stop", 40, "f-stop 40"),
+    ("distance", -1, "distance (m) -1"), ("seed", -5, "seed -5"),
+])
+def test_an_out_of_range_value_is_refused_with_a_message(state, name, value, words):
+    before, good = getattr(state, name), state.result
+    assert state.set_value(name, value) == before
+    assert state.message.startswith("Refused:") and words in state.message and "kept" in state.message
+    assert getattr(state, name) == before and state.result is good
+
+
+def test_a_combination_refused_by_the_engine_puts_the_parameters_back(state):
+    state.demosaic_method = "malvar2004"  # fine on the DCS-200's Bayer tile
+    good = state.result
+    state.camera = "gaussian-4"  # its 2 x 2 four-sensor grid is not a Bayer tile
+    assert "malvar2004" in state.message and "Bayer" in state.message
+    assert state.camera == "kodak-dcs200-ir" and state.result is good
+    assert state.design_params() == state.shown
+
+
+@pytest.mark.parametrize("camera, mosaic", [("human-cones", "preset"), ("stockman-sharpe", "preset"),
+                                            ("cie1931", "preset"), ("kodak-dcs200-ir", "none"),
+                                            ("gaussian-4", "none")])
+def test_full_colour_cameras_run(state, camera, mosaic):
+    state.param.update(camera=camera, mosaic=mosaic)
+    assert state.message == "" and state.camera == camera and state.mosaic == mosaic
+    assert state.result.raw.mosaiced is False and "demosaic" in state.result.skipped
+
+
+def test_gaussian_sensors_are_named_by_their_peak(state):
+    state.camera = "gaussian-4"
+    assert state.result.camera.sensors.names == ("460 nm", "520 nm", "580 nm", "640 nm")
+    state.camera = "gaussian-3"
+    assert state.result.camera.sensors.names == ("R", "G", "B")  # 640, 520, 460 nm: red, green, blue
+    state.gaussian_centers = "600, 450, 700"
+    assert state.result.camera.sensors.names == ("600 nm", "450 nm", "700 nm")
+
+
+def test_exposure_warnings_count_clipped_and_dark_pixels(state):
+    raw = state.result.raw
+    data = np.zeros(raw.data.shape)
+    data.flat[: data.size // 4] = 255  # a quarter at full scale
+    data.flat[data.size // 4: data.size // 2] = 128  # a quarter mid-range, the rest at 0
+    clipped, dark = exposure_warnings(raw.replace(data=data))
+    assert clipped == pytest.approx(0.25, abs=1e-6) and dark == pytest.approx(0.5, abs=1e-6)
+
+
+def test_auto_exposure_says_what_it_aims_at(state):
+    state.auto_expose()
+    assert "90 % of full scale" in state.notice and "brightest 0.5 %" in state.notice
+
+
+def test_rgba32_packs_bytes_for_bokeh_bottom_row_first():
+    rgb = np.zeros((2, 3, 3), np.uint8)
+    rgb[0, 0] = (10, 20, 30)  # top-left pixel
+    packed = rgba32(rgb)
+    assert packed.dtype == np.uint32 and packed.shape == (2, 3)
+    assert packed[1, 0] == 10 + (20 << 8) + (30 << 16) + (255 << 24)  # Bokeh draws row 0 at the bottom
+    assert packed[0, 0] == 255 << 24
+
+
+def test_histogram_refits_to_the_data():
+    small = histogram(np.full(100, 0.3))
+    big = histogram(np.r_[np.linspace(0, 60, 1000), [np.nan, 500.0]])
+    assert small[2] == 1.0 and big[2] == 60.0  # the range follows the data (99.5th percentile)
+    assert small[1].sum() == 100 and big[1].sum() == 1001  # every finite value counted, the outlier in the last bin
+    assert de_range(np.linspace(0, 40, 1001), "data") == pytest.approx((0.0, 39.8))
+    assert de_range(np.linspace(0, 40, 1001), "fixed 0-20") == (0.0, 20.0)

@@ -120,3 +120,32 @@ def test_fingerprint_compares_arrays_by_content():
     b[1, 2] += 1e-12
     assert fingerprint(a) != fingerprint(b)
     assert fingerprint(a) != fingerprint(a.reshape(3, 2))
+
+
+@pytest.mark.parametrize("name", ["human-cones", "stockman-sharpe", "cie1931", "kodak-dcs200-ir"])
+def test_a_full_colour_image_is_processed_without_demosaicing(scene, name):
+    """A camera without a mosaic records every sensor at every pixel: nothing to demosaic."""
+    cam = cc.load_camera(name).replace(mosaic=None, distance=3.32, exposure=0.1, f_stop=11.0, noise_sigma=0.0)
+    p = Pipeline()
+    r = p.run(scene, cam, CIELAB)
+    assert r.errors == {}, r.errors
+    assert "demosaic" not in r.ran_steps and "not mosaiced" in r.skipped["demosaic"]
+    assert r.demosaiced is r.raw and r.raw.data.ndim == 3
+    assert np.array_equal(_array(r.rendered), _array(cc.render(r.raw, cc.load_monitor("simtoolbox-test"))))
+    # the demosaicing method is irrelevant: changing it re-runs nothing
+    again = p.run(scene, cam, Processing(demosaic="freeman", metrics=("cielab",)))
+    assert again.ran_steps == [] and again.errors == {}
+    # and a mosaiced camera afterwards is demosaiced again
+    mosaiced = p.run(scene, cam.replace(mosaic=BAYER["GRBG"]), CIELAB)
+    assert "demosaic" in mosaiced.ran_steps and mosaiced.skipped == {}
+
+
+def test_the_ideal_camera_itself_scores_zero(scene):
+    """The ideal image's own camera (cones, no mosaic, no noise, 8 bits, baseline) has dE 0 exactly."""
+    from camsim_core.rendering import ideal_camera
+
+    cam = cc.load_camera("kodak-dcs200-ir").replace(distance=3.32, exposure=0.1, f_stop=11.0, noise_sigma=0.0)
+    r = Pipeline().run(scene, ideal_camera(cam), CIELAB)
+    assert r.errors == {} and "demosaic" in r.skipped
+    assert np.array_equal(_array(r.rendered), _array(r.ideal))
+    assert float(np.max(r.delta_e)) == 0.0

@@ -249,7 +249,10 @@ def camera_from_params(params, *, max_sensors=MAX_SENSORS, max_tile=MAX_TILE, ma
         widths = parse_numbers(p["gaussian_widths"], "gaussian_widths", max_count=max_sensors, max_text=max_text)
         if len(widths) not in (1, len(centers)):
             raise ParameterError("gaussian_widths", f"give one width or one per sensor ({len(centers)})")
-        names = ("R", "G", "B") if len(centers) == 3 and p["camera"] == "gaussian-3" else None
+        # R, G, B only for the three-sensor preset's red, green and blue peaks; otherwise the
+        # peak wavelength (the engine's default "G520" reads as "green")
+        rgb = p["camera"] == "gaussian-3" and list(centers) == [640.0, 520.0, 460.0]
+        names = ("R", "G", "B") if rgb else tuple(f"{c:g} nm" for c in centers)
         changes["sensors"] = gaussian_sensors(centers, widths if len(widths) > 1 else widths[0], names=names)
     changes["mosaic"] = _tile(p, cam, max_tile, max_text)
     changes.update(
