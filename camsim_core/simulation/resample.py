@@ -98,35 +98,35 @@ def axis_matrix(N, Phi, phi, D, d, limit=None):
     return m
 
 
-def _resample_rows(src, iy, wy, ix, wx, out):
-    """out[r, j, c] = sum_s wy[r, s] sum_t wx[j, t] src[iy[r, s], ix[j, t], c]: the two axis passes fused.
+def _resample_rows(src, iy, wy, ixk, wxk, out):
+    """out[r, q] = sum_s wy[r, s] sum_t wxk[q, t] src[iy[r, s], ixk[q, t]]: both axis passes, fused.
 
+    ``src`` (H, W K) and ``out`` (h, w K) are the images with each pixel's K
+    values side by side; ``ixk``, ``wxk`` (w K, L) the x band spread over them.
     Compiled by numba (:func:`_kernel`): per output row, the y pass
     accumulates whole input rows into one row buffer (contiguous, it
-    vectorizes), then the x pass reads that buffer. numpy cannot do the x
-    pass of an (H, W, K) image without transposing it (strided copies of
-    K-value pixels, 5-10x the time of the arithmetic) or without one
+    vectorizes), then the x pass gathers from that buffer. numpy cannot do
+    the x pass of an (H, W, K) image without transposing it (strided copies
+    of K-value pixels: 5-10x the time of the arithmetic, measured) or one
     full-size temporary per band term; fused, the stage reads its input once
     and writes its output once.
     """
-    h, w, k = out.shape
-    W = src.shape[1]
-    row = np.empty((W, k), dtype=out.dtype)
+    h, n = out.shape
+    row = np.empty(src.shape[1], dtype=out.dtype)
     for r in range(h):
-        row[:, :] = 0
+        row[:] = 0
         for s in range(iy.shape[1]):
             a = wy[r, s]
             if a != 0:
-                plane = src[iy[r, s]]
-                for x in range(W):
-                    for c in range(k):
-                        row[x, c] += a * plane[x, c]
-        for j in range(w):
-            for c in range(k):
-                acc = 0.0
-                for t in range(ix.shape[1]):
-                    acc += wx[j, t] * row[ix[j, t], c]
-                out[r, j, c] = acc
+                line = src[iy[r, s]]
+                for x in range(line.size):
+                    row[x] += a * line[x]
+        o = out[r]
+        for q in range(n):
+            acc = 0.0
+            for t in range(ixk.shape[1]):
+                acc += wxk[q, t] * row[ixk[q, t]]
+            o[q] = acc
 
 
 @lru_cache(maxsize=1)
@@ -158,13 +158,20 @@ def resample(camera, image):
         data = data[:, :, None]
     if not (_is_identity(iy, H) and _is_identity(ix, W)):
         data = np.ascontiguousarray(data)
-        out = np.empty((iy.shape[0], ix.shape[0], data.shape[2]), data.dtype)
-        dt = data.dtype
-        _kernel()(data, iy, wy.astype(dt), ix, wx.astype(dt), out)
+        (h, k), w, dt = (iy.shape[0], data.shape[2]), ix.shape[0], data.dtype
+        ixk, wxk = _spread(ix, wx, k)
+        out = np.empty((h, w, k), dt)
+        _kernel()(data.reshape(H, W * k), iy, wy.astype(dt), ixk, wxk.astype(dt), out.reshape(h, w * k))
         data = out
     if squeeze:
         data = data[:, :, 0]
     return image.then("resample", data=data, angular_resolution=camera.angular_resolution, distance=d)
+
+
+def _spread(ix, wx, k):
+    """The x band over pixels of K values side by side: index x K + c, weight repeated."""
+    ixk = (ix[:, None, :] * k + np.arange(k)[None, :, None]).reshape(ix.shape[0] * k, ix.shape[1])
+    return ixk.astype(np.int32 if ixk.size and ixk.max() < 2**31 else np.intp), np.repeat(wx, k, axis=0)
 
 
 def _is_identity(idx, n):
