@@ -339,3 +339,14 @@ def test_cli_size_is_checked(tmp_path, capsys):
         main(["simulate", "--scene", "macbeth", "--camera", "kodak-dcs200-ir", "--size", "12by4", "--out", str(tmp_path / "x.tif")])
     assert "ROWSxCOLS" in capsys.readouterr().err
     assert not (tmp_path / "x.tif").exists()
+
+
+@pytest.mark.parametrize("shape, size", [((50, 61), 5), ((7, 9), 3), ((40, 33), 7), ((3, 300), 5), ((6, 6), 4)])
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_freeman_median_equals_scipy(shape, size, dtype):
+    from camsim_core.demosaicing._median import median_filter
+
+    x = np.random.default_rng(9).random(shape)
+    x[::3] = np.round(x[::3], 1)  # ties
+    x = x.astype(dtype)
+    np.testing.assert_array_equal(median_filter(x, size), ndimage.median_filter(x, size=size, mode="mirror"))
