@@ -350,3 +350,23 @@ def test_freeman_median_equals_scipy(shape, size, dtype):
     x[::3] = np.round(x[::3], 1)  # ties
     x = x.astype(dtype)
     np.testing.assert_array_equal(median_filter(x, size), ndimage.median_filter(x, size=size, mode="mirror"))
+
+
+def test_to_screen_block_means():
+    from camsim_core.screen import to_screen
+
+    img = np.random.default_rng(10).uniform(0, 255, (3000, 4000, 3)).astype(np.float32)
+    view, block = to_screen(img, (1000, 1600))
+    assert block == 3 and view.shape == (1000, 1334, 3) and view.dtype == np.float32
+    np.testing.assert_allclose(view[5, 7], img[15:18, 21:24].reshape(-1, 3).mean(axis=0), rtol=1e-5)
+    np.testing.assert_allclose(view[-1, -1], img[2997:, 3999:].reshape(-1, 3).mean(axis=0), rtol=1e-5)  # partial block
+    np.testing.assert_allclose(view.mean(), img[:, :4000].mean(), rtol=1e-3)
+    # zoomed in: a region small enough is sent at full resolution
+    detail, b = to_screen(img, (1000, 1600), region=(100, 200, 500, 800))
+    assert b == 1 and np.array_equal(detail, img[100:600, 200:1000])
+    small, b = to_screen(np.arange(12).reshape(3, 4), (2, 2))
+    assert b == 2 and np.allclose(small, [[2.5, 4.5], [8.5, 10.5]])
+    with pytest.raises(ParameterError, match="region"):
+        to_screen(img, region=(0, 0, 0, 5))
+    with pytest.raises(ParameterError, match="data"):
+        to_screen(np.zeros(5))
