@@ -160,10 +160,20 @@ class Pipeline:
 
     def __init__(self):
         self._memo = {}
+        self._ideal_lab = {}
 
     def clear(self):
         """Forget every cached step."""
         self._memo.clear()
+        self._ideal_lab.clear()
+
+    def _ideal_side(self, key, compute):
+        """The ideal image's side of an error map (its L*a*b*, plain or S-CIELAB filtered), kept while
+        the ideal image stays the same: a noise or processing move then converts only the camera image."""
+        if key not in self._ideal_lab:
+            self._ideal_lab = {k: v for k, v in self._ideal_lab.items() if k[1] == key[1]}
+            self._ideal_lab[key] = compute()
+        return self._ideal_lab[key]
 
     def _step(self, name, key, compute, result):
         """The cached output of ``name`` for ``key``, or compute, time and remember it.
@@ -269,27 +279,31 @@ class Pipeline:
         if t_xyz is None or t_ixyz is None:
             return result
         result.white = np.asarray(white_xyz(monitor), float)
+        white = result.white
         if "cielab" in proc.metrics:
-            _, result.delta_e = self._step(
-                "delta_e",
-                (t_xyz, t_ixyz),
-                lambda: metrics.delta_e(_data(result.xyz), _data(result.ideal_xyz), result.white),
-                result,
-            )
+
+            def cielab():
+                # metrics.delta_e, with the ideal image's L*a*b* kept between moves
+                xyz, ideal = metrics.cielab.check_pair(_data(result.xyz), _data(result.ideal_xyz))
+                ideal_lab = self._ideal_side(("cielab", t_ixyz), lambda: metrics.cielab._xyz_to_lab(ideal, white))
+                return metrics.delta_e_lab(metrics.cielab._xyz_to_lab(xyz, white), ideal_lab)
+
+            _, result.delta_e = self._step("delta_e", (t_xyz, t_ixyz), cielab, result)
         if "scielab" in proc.metrics:
             try:
                 result.samples_per_degree = _samples_per_degree(result.rendered, proc.viewing)
             except CamsimError as exc:
                 result.errors["scielab"] = str(exc)
                 return result
-            _, result.scielab = self._step(
-                "scielab",
-                (t_xyz, t_ixyz, result.samples_per_degree),
-                lambda: metrics.scielab(
-                    _data(result.xyz), _data(result.ideal_xyz), result.samples_per_degree, result.white
-                ),
-                result,
-            )
+            spd = result.samples_per_degree
+
+            def scielab():
+                # metrics.scielab, with the ideal image's filtered L*a*b* kept between moves
+                xyz, ideal = metrics.cielab.check_pair(_data(result.xyz), _data(result.ideal_xyz))
+                ideal_lab = self._ideal_side(("scielab", t_ixyz, spd), lambda: metrics.filtered_lab(ideal, spd, white))
+                return metrics.delta_e_lab(metrics.filtered_lab(xyz, spd, white), ideal_lab)
+
+            _, result.scielab = self._step("scielab", (t_xyz, t_ixyz, spd), scielab, result)
         return result
 
 

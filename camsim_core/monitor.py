@@ -100,9 +100,79 @@ class Monitor:
             out[..., c] = np.interp(s[..., c], self.gamma_input, table)
         return out
 
+    def linear_to_frame_buffer(self, linear):
+        """Gamma-corrected frame-buffer values ``rint(linear_to_settings(linear) * (2**bits - 1))``, by table.
+
+        The same numbers as that expression (the value is a non-decreasing
+        step function of the linear intensity): a 65536-bucket table gives
+        the value at each bucket's two ends; where they differ (a step
+        inside the bucket, ~1 % of buckets) the exact expression is
+        evaluated for those pixels alone. ~10x faster than ``np.interp``
+        over every pixel. Returns the input's float dtype (float32 stays float32).
+        """
+        lin = np.asarray(linear)
+        dtype = lin.dtype if lin.dtype in (np.float32, np.float64) else np.dtype(np.float64)
+        lin = np.clip(lin, 0.0, 1.0, dtype=dtype)
+        lo, hi = _frame_buffer_tables(self, dtype)
+        idx = (lin * dtype.type(_BUCKETS)).astype(np.int32)
+        idx += (np.arange(3, dtype=np.int32) * (_BUCKETS + 1))
+        out = lo.take(idx)
+        unsure = np.flatnonzero(hi.take(idx) != out)
+        if unsure.size:
+            c = unsure % 3
+            x = lin.reshape(-1)[unsure]
+            full = float(2**self.bits - 1)
+            flat = out.reshape(-1)
+            for ch in range(3):
+                sel = c == ch
+                flat[unsure[sel]] = np.rint(self._settings(x[sel].astype(np.float64), ch) * full)
+        return out.astype(dtype, copy=False)
+
+    def frame_buffer_to_linear(self, values):
+        """``settings_to_linear(values / (2**bits - 1))`` for frame-buffer values (..., 3), by a 2**bits table.
+
+        Whole numbers in range are looked up (the same numbers); anything else
+        goes through :meth:`settings_to_linear`. Returns the input's float
+        dtype (float32 stays float32).
+        """
+        v = np.asarray(values)
+        dtype = v.dtype if v.dtype in (np.float32, np.float64) else np.dtype(np.float64)
+        full = 2**self.bits - 1
+        idx = v.astype(np.int32)
+        if not (np.array_equal(idx, v) and idx.min(initial=0) >= 0 and idx.max(initial=0) <= full):
+            return self.settings_to_linear(v / float(full)).astype(dtype, copy=False)
+        table = self.settings_to_linear(np.arange(full + 1, dtype=float)[:, None].repeat(3, axis=1) / float(full))
+        idx += np.arange(3, dtype=np.int32) * (full + 1)
+        return table.T.astype(dtype).ravel().take(idx)
+
+    def _settings(self, lin, c):
+        """Channel ``c`` of :meth:`linear_to_settings` on values already in [0, 1]."""
+        table = self.gamma_table[:, c] / self.gamma_table[-1, c]
+        keep = np.concatenate([[True], np.diff(table) > 0])
+        return np.interp(lin, table[keep], self.gamma_input[keep])
+
     def describe(self):
         return {"name": self.name, "kind": "monitor", "wavelengths_nm": f"{self.wavelengths[0]:g}-{self.wavelengths[-1]:g}",
                 "bits": self.bits, "gamma_entries": int(self.gamma_input.size)}
+
+
+#: Buckets of the frame-buffer table over linear intensities [0, 1] (a power of 2: x * 2**16 is exact).
+_BUCKETS = 1 << 16
+
+
+@lru_cache(maxsize=16)
+def _frame_buffer_tables(monitor, dtype):
+    """Per channel, the frame-buffer value at each bucket's low and high ends: flat (3 (B + 1),) each.
+
+    Bucket b holds the ``dtype`` values x with b <= x * B < b + 1; its high
+    end is the largest such value (``nextafter`` below (b + 1) / B).
+    """
+    full = float(2**monitor.bits - 1)
+    starts = (np.arange(_BUCKETS + 1) / _BUCKETS).astype(dtype)
+    ends = np.minimum(np.nextafter((np.arange(1, _BUCKETS + 2) / _BUCKETS).astype(dtype), dtype.type(0)), dtype.type(1))
+    lo = np.stack([np.rint(monitor._settings(starts.astype(np.float64), c) * full) for c in range(3)])
+    hi = np.stack([np.rint(monitor._settings(ends.astype(np.float64), c) * full) for c in range(3)])
+    return lo.astype(dtype).ravel(), hi.astype(dtype).ravel()
 
 
 def read_smon(path):

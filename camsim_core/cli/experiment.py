@@ -1,11 +1,12 @@
 """``camsim experiment sensors|mosaic|pixel-size``: the chapter's section 5 experiments (Figure 1.14,
 Table 1.16) and its section 6 question (pixel size for a fixed sensor).
 
-Each configuration (scene x design x noise sigma x seed) is one task on
-Dask: a local cluster of ``--workers`` single-thread workers by default,
-an existing cluster with ``--scheduler ADDRESS``, or this process alone
-with ``--workers 0``. Outputs go to ``--out`` (CSV files, the figure as
-PNG) and the table is printed.
+Each configuration (scene x design x noise sigma x seed) is one task:
+in this process for a small sweep (under 50 tasks) or with ``--workers 0``,
+else on a local Dask cluster of ``--workers`` single-thread workers (the
+CPU count by default), or on an existing cluster with ``--scheduler
+ADDRESS``. Outputs go to ``--out`` (CSV files, the figure as PNG) and the
+table is printed.
 """
 
 from __future__ import annotations
@@ -40,7 +41,8 @@ def _common(p, default_out):
     p.add_argument("--monitor", default="simtoolbox-test", help="monitor calibration (default: simtoolbox-test)")
     p.add_argument("--out", default=default_out, help=f"output folder, created if missing (default: {default_out})")
     p.add_argument("--workers", type=int, default=None,
-                   help=f"local Dask cluster of N single-thread workers (default: the CPU count, {os.cpu_count()}); 0 = no Dask, run in this process")
+                   help=f"local Dask cluster of N single-thread workers; 0 = no Dask, run in this process (default: this process "
+                        f"below 50 tasks, else the CPU count, {os.cpu_count()})")
     p.add_argument("--scheduler", metavar="ADDRESS", help="use an existing Dask scheduler, e.g. tcp://host:8786 (its workers must have camsim)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     view = p.add_mutually_exclusive_group()
@@ -89,18 +91,20 @@ def register(subparsers):
     x.add_argument("--demosaic", default="bilinear", help="demosaicing method for the Bayer tile (default: bilinear)")
     x.add_argument("--out", default="experiments/pixel-size", help="output folder, created if missing (default: experiments/pixel-size)")
     x.add_argument("--workers", type=int, default=None,
-                   help=f"local Dask cluster of N single-thread workers (default: the CPU count, {os.cpu_count()}); 0 = no Dask, run in this process")
+                   help=f"local Dask cluster of N single-thread workers; 0 = no Dask, run in this process (default: this process "
+                        f"below 50 tasks, else the CPU count, {os.cpu_count()})")
     x.add_argument("--scheduler", metavar="ADDRESS", help="use an existing Dask scheduler, e.g. tcp://host:8786")
     x.add_argument("--no-progress", action="store_true", help="no progress bar")
     x.set_defaults(func=run)
 
 
-def _workers(args):
+def _workers(args, n_tasks):
+    """Local cluster size for ``n_tasks`` tasks, or None (this process, or the ``--scheduler``)."""
+    from ..experiments.runner import choose_workers
+
     if args.workers is not None and args.workers < 0:
         raise ParameterError("--workers", f"must be >= 0, got {args.workers}")
-    if args.scheduler or args.workers == 0:
-        return None
-    return args.workers or os.cpu_count() or 1
+    return None if args.scheduler else choose_workers(n_tasks, args.workers)
 
 
 def _out(args):
@@ -114,10 +118,11 @@ def run_pixel_size(args):
     from ..experiments import grid, pixel_size
     from ..experiments.runner import run_tasks
 
-    workers, out = _workers(args), _out(args)
+    out = _out(args)
     t0 = time.perf_counter()
     configs = pixel_size.configurations(grid.parse_values(args.pitches, "--pitches"), grid.parse_values(args.lux, "--lux"),
                                         args.seeds, demosaic=args.demosaic)
+    workers = _workers(args, len(configs))
     where = f"scheduler {args.scheduler}" if args.scheduler else (f"local Dask cluster of {workers} worker(s)" if workers else "this process")
     print(f"camsim experiment pixel-size: {len(configs)} tasks on {where}")
     records = run_tasks(pixel_size.evaluate, configs, workers=workers, scheduler=args.scheduler,
@@ -142,12 +147,6 @@ def run(args):
     distance = _distance(args.distance)
     if args.workers is not None and args.workers < 0:
         raise ParameterError("--workers", f"must be >= 0, got {args.workers}")
-    if args.scheduler:
-        workers = None
-    elif args.workers == 0:
-        workers = None
-    else:
-        workers = args.workers or os.cpu_count() or 1
     progress = False if args.no_progress else None
     from ..metrics.viewing import DEFAULT_VIEWING, parse_viewing
 
@@ -170,10 +169,12 @@ def run(args):
         configs = mosaic.configurations(args.scenes, sigmas, args.seeds, centers=centers, std_nm=args.std,
                                         distance=distance, monitor=args.monitor, demosaic=args.demosaic, viewing=viewing)
         module = mosaic
+    from ..experiments.runner import choose_workers, run_tasks
+
+    workers = None if args.scheduler else choose_workers(len(configs), args.workers)
     where = f"scheduler {args.scheduler}" if args.scheduler else (f"local Dask cluster of {workers} worker(s)" if workers else "this process")
     print(f"camsim experiment {args.experiment}: {len(configs)} tasks on {where}")
     print(viewing.describe(module.camera_rate()) if viewing.kind == "camera" else viewing.describe())
-    from ..experiments.runner import run_tasks
 
     records = run_tasks(module.evaluate, configs, workers=workers, scheduler=args.scheduler, progress=progress,
                         desc=args.experiment)

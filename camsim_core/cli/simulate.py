@@ -2,11 +2,22 @@
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 from ..errors import ParameterError
 
 __all__ = ["register", "run"]
+
+
+def _size(text):
+    try:
+        rows, cols = (int(v) for v in str(text).lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected ROWSxCOLS (e.g. 3000x4000), got {text!r}") from None
+    if rows < 1 or cols < 1:
+        raise argparse.ArgumentTypeError(f"rows and columns must be >= 1, got {text!r}")
+    return rows, cols
 
 
 def register(subparsers):
@@ -29,17 +40,41 @@ def register(subparsers):
     p.add_argument("--unquantized", action="store_true", help="no digitization (float output, write .npy)")
     p.add_argument("--no-mosaic", action="store_true", help="simulate a full-colour (non-mosaiced) camera")
     p.add_argument("--seed", type=int, help="noise seed")
+    p.add_argument("--size", type=_size, metavar="ROWSxCOLS", help="the camera's pixel array, e.g. 3000x4000 (default: the camera's own)")
     p.add_argument("--demosaic", metavar="METHOD", help="demosaic the raw image (bilinear, freeman, bayesian, bayesian-original, malvar2004, menon2007)")
     p.add_argument("--render", metavar="METHOD", help="render for display (baseline, illuminant); implies --demosaic bilinear for a mosaic")
     p.add_argument("--illuminant", help="for --render illuminant: gray-world, max-rgb, or omit for the scene's known one")
     p.add_argument("--monitor", default="simtoolbox-test", help="monitor for --render (default simtoolbox-test)")
     p.add_argument("--out", required=True, help="output file: .tif, .png, .npy, or .dng (a CFA DNG raw converters open)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar (it shows only on a terminal anyway)")
     p.set_defaults(func=run)
 
 
+def _run_with_progress(image, steps, out, disable=None, write=None):
+    """Apply ``steps`` (name, function) to ``image`` and write it to ``out`` (``write(image, path)``,
+    default :func:`~camsim_core.io.output.write_image`), one progress-bar tick per step.
+
+    The bar goes to standard error and shows only on a terminal (``disable=None``).
+    """
+    from tqdm.auto import tqdm
+
+    from ..io.output import write_image
+
+    with tqdm(total=len(steps) + 1, desc="simulate", unit="step", disable=disable, leave=True) as bar:
+        for name, step in steps:
+            bar.set_postfix_str(name)
+            image = step(image)
+            bar.update(1)
+        bar.set_postfix_str(f"write {out.name}")
+        (write or write_image)(image, out)
+        bar.update(1)
+    return image
+
+
 def run(args):
-    from .. import auto_exposure, load_camera, load_scene, simulate
-    from ..io.output import RAW_SUFFIXES, write_image
+    from .. import auto_exposure, load_camera, load_scene
+    from ..image import image_from_scene
+    from ..io.output import RAW_SUFFIXES
 
     out = Path(args.out)
     dng = out.suffix.lower() == ".dng"
@@ -62,28 +97,33 @@ def run(args):
         changes["bits"] = None
     if args.no_mosaic:
         changes["mosaic"] = None
+    if args.size is not None:
+        changes["height"], changes["width"] = args.size
     for name in ("distance", "exposure", "f_stop", "seed"):
         if getattr(args, name) is not None:
             changes[name] = getattr(args, name)
     camera = camera.replace(**changes)
     if args.auto_exposure:
         camera = camera.replace(exposure=auto_exposure(scene, camera))
-    image = simulate(scene, camera)
-    if args.demosaic or (args.render and image.mosaiced):
+    steps = [(getattr(s, "__name__", "stage"), lambda im, s=s: s(camera, im)) for s in camera.architecture]
+    if args.demosaic or args.render:
         from .. import demosaic
 
-        image = demosaic(image, method=args.demosaic or "bilinear")
+        method = args.demosaic or "bilinear"
+        steps.append((f"demosaic {method}", lambda im: demosaic(im, method=method) if (args.demosaic or im.mosaiced) else im))
     if args.render:
         from .. import load_monitor, render
 
-        image = render(image, load_monitor(args.monitor), method=args.render, illuminant=args.illuminant)
+        monitor = load_monitor(args.monitor)
+        steps.append((f"render {args.render}", lambda im: render(im, monitor, method=args.render, illuminant=args.illuminant)))
     if dng:
         from ..io.dng import write_dng
 
-        write_dng(image, out, model=camera.name or "camera")
+        image = _run_with_progress(image_from_scene(scene), steps, out, disable=True if args.no_progress else None,
+                                   write=lambda im, path: write_dng(im, path, model=camera.name or "camera"))
         print(f"wrote {out} ({image.data.shape[0]} x {image.data.shape[1]} CFA DNG, {image.bits}-bit)")
         return 0
-    write_image(image, out)
+    image = _run_with_progress(image_from_scene(scene), steps, out, disable=True if args.no_progress else None)
     print(f"wrote {out} ({' x '.join(str(s) for s in image.data.shape)}, {image.space}"
           f"{', mosaiced' if image.mosaiced else ''}{f', {image.bits}-bit' if image.quantized else ''}) and {out.name}.json")
     return 0

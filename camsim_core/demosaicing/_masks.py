@@ -29,7 +29,9 @@ def check_mosaiced(image, method):
         )
     k = n_classes(image)
     tile = check_tile(image.tile, k, "tile")
-    data = np.asarray(image.data, float)
+    data = np.asarray(image.data)
+    if data.dtype not in (np.float32, np.float64):  # float32 raws stay float32
+        data = data.astype(np.float64)
     if tile.ndim == 2:
         tile = tile[:, :, None]
     if data.ndim == 2:

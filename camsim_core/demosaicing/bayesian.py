@@ -249,15 +249,17 @@ def posterior_filters(prior, tile, window, noise_var, ridge=1e-6, local_mean=Tru
     return out
 
 
-def apply_filters(data, tile, filters, half):
+def apply_filters(data, tile, filters, half, rows=32):
     """Apply per-position linear filters to mosaic planes (H, W, T) -> (H, W, K).
 
     The padded mosaic is split once into its n x m tile phases (contiguous
     sub-images), so every sample the window of an output phase needs is a
-    plain slice of one of them; the O slices are stacked and multiplied by
-    the (K, O) filter matrix in one BLAS call per tile position, in single
-    precision (relative error ~1e-7, far below any camera's noise); the bias
-    is added in double precision.
+    plain slice of one of them; for each tile position and each block of
+    ``rows`` output rows, the O slices are stacked (a cache-sized buffer,
+    not O full-size planes) and multiplied by the (K, O) filter matrix in
+    one BLAS call, in single precision (relative error ~1e-7, far below any
+    camera's noise); the bias is added in the output's precision (the
+    mosaic's dtype: float32 stays float32).
     """
     h, w, _ = data.shape
     n, m, _ = tile.shape
@@ -265,19 +267,33 @@ def apply_filters(data, tile, filters, half):
     ix = phase_pad_index(w, half, m)
     padded = data[iy][:, ix].astype(np.float32)
     phases = {(qy, qx): np.ascontiguousarray(np.moveaxis(padded[qy::n, qx::m], -1, 0)) for qy in range(n) for qx in range(m)}
+    del padded
     k = next(iter(filters.values()))[0].shape[0]
-    out = np.empty((h, w, k))
+    out = np.empty((h, w, k), data.dtype if data.dtype in (np.float32, np.float64) else np.float64)
     for (py, px), (f, bias, (dy, dx, tier)) in filters.items():
         hp, wp = len(range(py, h, n)), len(range(px, w, m))
         if hp == 0 or wp == 0:
             continue
-        stack = np.empty((dy.size, hp, wp), np.float32)
-        for o in range(dy.size):
-            y0, x0 = half + py + dy[o], half + px + dx[o]
-            sub = phases[(y0 % n, x0 % m)]
-            stack[o] = sub[tier[o], y0 // n : y0 // n + hp, x0 // m : x0 // m + wp]
-        est = (f.astype(np.float32) @ stack.reshape(dy.size, -1)).reshape(k, hp, wp)
-        out[py::n, px::m, :] = np.moveaxis(est, 0, -1) + bias
+        f32 = f.astype(np.float32)
+        bias_out = bias.astype(out.dtype)
+        y0 = [half + py + d for d in dy]
+        x0 = [half + px + d for d in dx]
+        src = [phases[(a % n, b % m)][t] for a, b, t in zip(y0, x0, tier)]
+        ys = [a // n for a in y0]
+        xs = [b // m for b in x0]
+        stack = np.empty((dy.size, min(rows, hp), wp), np.float32)
+        est = np.empty((k, min(rows, hp) * wp), np.float32)
+        view = out[py::n, px::m, :]
+        for r0 in range(0, hp, rows):
+            r1 = min(hp, r0 + rows)
+            st = stack[:, : r1 - r0]
+            for o in range(dy.size):
+                st[o] = src[o][ys[o] + r0 : ys[o] + r1, xs[o] : xs[o] + wp]
+            e = est[:, : (r1 - r0) * wp]
+            np.matmul(f32, st.reshape(dy.size, -1), out=e)
+            block = view[r0:r1]
+            block[...] = np.moveaxis(e.reshape(k, r1 - r0, wp), 0, -1)
+            block += bias_out
     return out
 
 

@@ -20,12 +20,36 @@ it switches itself off when that is not a terminal, unless ``progress=True``).
 from __future__ import annotations
 
 import logging
+import os
 
 from tqdm.auto import tqdm
 
 from ..errors import ParameterError
 
-__all__ = ["run_tasks", "local_cluster"]
+__all__ = ["run_tasks", "local_cluster", "choose_workers", "MIN_CLUSTER_TASKS"]
+
+#: Below this many tasks a local cluster does not pay: starting its worker
+#: processes (~1.5 s, each importing numpy, scipy and colour) costs more than
+#: it saves on 2 cores, so the sweep runs in this process.
+MIN_CLUSTER_TASKS = 50
+
+
+def choose_workers(n_tasks, requested=None, *, cpus=None):
+    """Workers of the local cluster for ``n_tasks`` tasks, or None to run them in this process.
+
+    ``requested``: None (choose: in this process below :data:`MIN_CLUSTER_TASKS`
+    tasks, else one worker per CPU), 0 (in this process), or N (a cluster of
+    N workers, never more than there are tasks).
+    """
+    if requested is not None and (isinstance(requested, bool) or not isinstance(requested, int) or requested < 0):
+        raise ParameterError("workers", f"must be a whole number >= 0, or None to choose; got {requested!r}")
+    if requested == 0 or n_tasks == 0:
+        return None
+    if requested is None:
+        if n_tasks < MIN_CLUSTER_TASKS:
+            return None
+        requested = cpus or os.cpu_count() or 1
+    return max(1, min(int(requested), int(n_tasks)))
 
 
 def local_cluster(workers, *, processes=True):

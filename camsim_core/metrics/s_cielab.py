@@ -25,8 +25,11 @@ against:
 Speed: the horizontal-then-vertical separable passes with their mirrored
 padding are exactly one 2-D convolution of the image mirrored on all sides
 (a horizontal pass acts on each row alone, so it commutes with copying rows),
-so each channel is filtered here by one FFT product with the summed 2-D
-kernel, whose spectrum is cached. This is the fast path the explorer uses
+so each channel is filtered here by FFT products with the summed 2-D
+kernel, whose spectrum is cached, one band of 512 output rows at a time
+(each band's FFT takes the rows its kernel reaches: the same numbers as
+one transform of the whole image, in bounded memory; a float32 image is
+transformed in single precision). This is the fast path the explorer uses
 on every slider move; ``tests/test_scielab.py`` checks it against a direct
 2-D convolution within 1e-9.
 
@@ -62,7 +65,7 @@ import numpy as np
 import scipy.fft
 
 from ..errors import ParameterError
-from .cielab import _method, _xyz_to_lab, check_pair, check_white, delta_e_lab
+from .cielab import _method, _xyz_to_lab, check_pair, check_white, check_xyz, delta_e_lab
 
 __all__ = [
     "XYZ_TO_OPPONENT",
@@ -74,6 +77,7 @@ __all__ = [
     "filter_opponent",
     "samples_per_degree",
     "display_samples_per_degree",
+    "filtered_lab",
 ]
 
 #: XYZ (CIE 1931 2 deg) to Poirson-Wandell opponent channels (rows: luminance,
@@ -252,16 +256,66 @@ def _plan(spd, shape):
 # ---------------------------------------------------------------------------
 # filtering
 # ---------------------------------------------------------------------------
+#: Output rows filtered per FFT: bounds the transform's memory on large images.
+BAND_ROWS = 512
+
+
+@functools.lru_cache(maxsize=16)
+def _band_spectra(spd, cy, cx, fy, fx, dtype):
+    """Kernel spectra (3, fy, fx // 2 + 1) of the channels' kernels cropped to (2 cy + 1, 2 cx + 1), in ``dtype``."""
+    kernels = _kernels(spd)
+    c = kernels[0][0].shape[1] // 2
+    spectra = np.stack(
+        [
+            scipy.fft.rfft2(_kernel_2d(kx[:, c - cx : c + cx + 1], ky[:, c - cy : c + cy + 1]).astype(dtype), s=(fy, fx))
+            for kx, ky in kernels
+        ]
+    )
+    spectra.flags.writeable = False
+    return spectra
+
+
+def _filter_plane(plane, ch, spd, out):
+    """Filter one opponent plane (H, W) with channel ``ch``'s kernel into ``out`` (H, W), by bands of rows.
+
+    The plane is mirrored by ``py``, ``px`` (:func:`_plan`), zero beyond;
+    each band of output rows is one zero-padded FFT product of the rows it
+    reaches (its own plus ``cy`` above and below), the linear convolution's
+    valid part kept: the numbers of one FFT over the whole image (to
+    rounding), with memory bounded by the band. In the plane's dtype
+    (float32 stays float32: scipy.fft transforms in single precision).
+    """
+    H, W = plane.shape
+    py, px, cy, cx, _, _, _ = _plan(spd, (H, W))
+    padded = np.pad(plane, ((py, py), (px, px)), mode="symmetric")
+    PH = padded.shape[0]
+    band = min(H, BAND_ROWS)
+    fy = scipy.fft.next_fast_len(band + 2 * cy, real=True)
+    fx = scipy.fft.next_fast_len(W + 2 * px + 2 * cx, real=True)
+    spectrum = _band_spectra(spd, cy, cx, fy, fx, plane.dtype.type)[ch]
+    buf = np.zeros((band + 2 * cy, W + 2 * px + 2 * cx), plane.dtype)
+    for i0 in range(0, H, band):
+        i1 = min(H, i0 + band)
+        # rows of the padded plane that output rows i0..i1 reach: [i0 + py - cy, i1 + py + cy)
+        lo, hi = i0 + py - cy, i1 + py + cy
+        buf[:] = 0
+        s0, s1 = max(lo, 0), min(hi, PH)
+        buf[s0 - lo : s1 - lo, cx : cx + W + 2 * px] = padded[s0:s1]
+        f = scipy.fft.rfft2(buf, s=(fy, fx))
+        f *= spectrum
+        full = scipy.fft.irfft2(f, s=(fy, fx))
+        out[i0:i1] = full[2 * cy : 2 * cy + (i1 - i0), 2 * cx + px : 2 * cx + px + W]
+
+
 def _filter_channels(planes, spd):
     """Filter planes (..., 3, H, W) of opponent channels with their S-CIELAB kernels."""
-    H, W = planes.shape[-2:]
-    py, px, cy, cx, fy, fx, spectra = _plan(spd, (H, W))
-    pad = [(0, 0)] * (planes.ndim - 2) + [(py, py), (px, px)]
-    padded = np.pad(planes, pad, mode="symmetric")
-    f = scipy.fft.rfft2(padded, s=(fy, fx), workers=-1)
-    f *= spectra
-    full = scipy.fft.irfft2(f, s=(fy, fx), workers=-1)
-    return full[..., py + cy : py + cy + H, px + cx : px + cx + W]
+    planes = np.asarray(planes)
+    if planes.dtype not in (np.float32, np.float64):
+        planes = planes.astype(np.float64)
+    out = np.empty(planes.shape, planes.dtype)
+    for idx in np.ndindex(planes.shape[:-2]):
+        _filter_plane(planes[idx], idx[-1], spd, out[idx])
+    return out
 
 
 def filter_opponent(opponent, samples_per_degree):
@@ -279,7 +333,8 @@ def filter_opponent(opponent, samples_per_degree):
     ndarray (H, W, 3)
     """
     spd = _check_spd(samples_per_degree)
-    o = np.asarray(opponent, dtype=float)
+    o = np.asarray(opponent)
+    o = o if o.dtype in (np.float32, np.float64) else o.astype(np.float64)
     if o.ndim != 3 or o.shape[-1] != 3:
         raise ParameterError("opponent", f"must be an (H, W, 3) image, got shape {o.shape}")
     return np.moveaxis(_filter_channels(np.moveaxis(o, -1, -3), spd), -3, -1)
@@ -288,17 +343,34 @@ def filter_opponent(opponent, samples_per_degree):
 def scielab_filter(xyz, samples_per_degree):
     """The S-CIELAB spatially filtered XYZ image (H, W, 3) (steps 1-3 and the way back)."""
     spd = _check_spd(samples_per_degree)
-    xyz = np.asarray(xyz, dtype=float)
+    xyz = np.asarray(xyz)
+    xyz = xyz if xyz.dtype in (np.float32, np.float64) else xyz.astype(np.float64)
     if xyz.ndim != 3 or xyz.shape[-1] != 3:
         raise ParameterError("xyz", f"must be an (H, W, 3) XYZ image, got shape {xyz.shape}")
     return _scielab_filter(xyz, spd)
 
 
 def _scielab_filter(xyz, spd):
-    # (..., H, W, 3) -> opponent planes (..., 3, H, W) -> filtered -> XYZ (..., H, W, 3)
-    opp = np.einsum("ij,...hwj->...ihw", XYZ_TO_OPPONENT, xyz)
-    filtered = _filter_channels(opp, spd)
-    return np.einsum("ij,...jhw->...hwi", OPPONENT_TO_XYZ, filtered)
+    # (..., H, W, 3) -> opponent planes (..., 3, H, W) -> filtered in place -> XYZ (..., H, W, 3)
+    dt = xyz.dtype
+    opp = np.einsum("ij,...hwj->...ihw", XYZ_TO_OPPONENT.astype(dt), xyz)
+    for idx in np.ndindex(opp.shape[:-2]):
+        _filter_plane(opp[idx].copy(), idx[-1], spd, opp[idx])
+    return np.einsum("ij,...jhw->...hwi", OPPONENT_TO_XYZ.astype(dt), opp)
+
+
+def filtered_lab(xyz, samples_per_degree, white):
+    """L*a*b* (H, W, 3) of the S-CIELAB filtered image: one side of :func:`scielab`.
+
+    The explorer caches it for the ideal image, which a noise or processing
+    change leaves as it is.
+    """
+    spd = _check_spd(samples_per_degree)
+    w = check_white(white)
+    a = check_xyz(xyz, "xyz")
+    if a.ndim != 3:
+        raise ParameterError("xyz", f"must be an (H, W, 3) image, got shape {a.shape}")
+    return _xyz_to_lab(_scielab_filter(a, spd), w)
 
 
 def scielab(xyz1, xyz2, samples_per_degree, white, *, method="CIE 1976"):
@@ -329,6 +401,7 @@ def scielab(xyz1, xyz2, samples_per_degree, white, *, method="CIE 1976"):
     a, b = check_pair(xyz1, xyz2)
     if a.ndim != 3:
         raise ParameterError("xyz1", f"must be an (H, W, 3) image, got shape {a.shape}")
-    filtered = _scielab_filter(np.stack([a, b]), spd)
-    lab = _xyz_to_lab(filtered, w)
-    return delta_e_lab(lab[0], lab[1], method)
+    # one image at a time: its opponent planes are filtered in place, band by band
+    lab1 = _xyz_to_lab(_scielab_filter(a, spd), w)
+    lab2 = _xyz_to_lab(_scielab_filter(b, spd), w)
+    return delta_e_lab(lab1, lab2, method)

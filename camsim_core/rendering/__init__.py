@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..monitor import Monitor, load_monitor
 from ._linear import apply_matrix, cones, per_band
-from .baseline import baseline_matrix, check_renderable, display_scale, to_frame_buffer
+from .baseline import _sensor_planes, baseline_matrix, display_scale, to_frame_buffer
 from .ideal import ideal_camera, ideal_image
 from .illuminant import balance_matrix, matched_luminance, resolve_illuminant, surface_basis
 from .xyz import monitor_xyz_matrix, to_xyz, white_xyz
@@ -36,6 +36,20 @@ def _monitor(monitor):
     if isinstance(monitor, Monitor):
         return monitor
     return load_monitor(monitor)
+
+
+class _Responses:
+    """The sensor responses with the gain divided out, computed only if an illuminant estimate asks."""
+
+    def __init__(self, data, gain):
+        self._data, self._gain = data, gain
+
+    def __array__(self, dtype=None, copy=None):
+        return np.asarray(self._data / self._gain, dtype=dtype)
+
+    @property
+    def shape(self):
+        return self._data.shape
 
 
 def render(image, monitor, method="baseline", illuminant=None, dimensions=None, *,
@@ -72,7 +86,8 @@ def render(image, monitor, method="baseline", illuminant=None, dimensions=None, 
     if key not in METHODS:
         raise ParameterError("method", f"unknown rendering method {method!r}; valid: {', '.join(METHODS)}")
     mon = _monitor(monitor)
-    r = check_renderable(image)
+    data = _sensor_planes(image)  # the gain is divided out in the matrix, not over the pixels
+    gain = float(image.gain)
     wls = image.wavelengths
     b_m = mon.primaries_on(wls)
     extra = dict(image.extra)
@@ -80,9 +95,10 @@ def render(image, monitor, method="baseline", illuminant=None, dimensions=None, 
     if key == "baseline":
         if illuminant is not None or render_illuminant is not None or dimensions is not None:
             raise ParameterError("method", "illuminant, render_illuminant and dimensions apply to method='illuminant' only")
-        w = apply_matrix(r, baseline_matrix(image.sensitivities, b_m))
+        w = apply_matrix(data, baseline_matrix(image.sensitivities, b_m) / gain)
     else:
         n_s = image.n_sensors if dimensions is None else int(dimensions)
+        r = _Responses(data, gain)
         e, spd = resolve_illuminant(image, r, illuminant)
         e_render = None
         if render_illuminant is not None:
@@ -93,13 +109,15 @@ def render(image, monitor, method="baseline", illuminant=None, dimensions=None, 
         t_h = cones(wls)
         to_cones = balance_matrix(image.sensitivities, t_h, e, surface_basis(wls, n_s), e_render)
         m = baseline_matrix(t_h, b_m, "cone-monitor matrix T_H B_M") @ to_cones
-        w = apply_matrix(r, m)
+        w = apply_matrix(data, m / gain)
         if white_used is None and image.illuminant is None:
             white_used = e  # an estimated or given illuminant stands in for the scene's white
         extra["illuminant"] = spd
         extra["dimensions"] = n_s
     s, source = display_scale(image, mon, white=white_used, scale=scale, linear=w)
-    linear = np.clip(w / s, 0.0, 1.0)
+    linear = w
+    linear /= linear.dtype.type(s) if linear.dtype == np.float32 else s
+    np.clip(linear, 0.0, 1.0, out=linear)
     extra.update(linear=linear, display_scale=s, scale_source=source, monitor=mon.name)
     return image.then(
         f"render:{key}",

@@ -67,6 +67,9 @@ def solve_matrix(a, what, hint=""):
 
 
 def apply_matrix(data, m):
-    """Per-pixel ``m @ v`` over (H, W, K) -> (H, W, J)."""
+    """Per-pixel ``m @ v`` over (H, W, K) -> (H, W, J), in ``data``'s float dtype (float32 stays float32)."""
     h, w, k = data.shape
-    return (data.reshape(-1, k) @ np.asarray(m).T).reshape(h, w, -1)
+    m = np.asarray(m, float)
+    if data.dtype == np.float32:
+        m = m.astype(np.float32)
+    return (data.reshape(-1, k) @ m.T).reshape(h, w, -1)

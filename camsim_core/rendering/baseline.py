@@ -44,18 +44,26 @@ def check_renderable(image):
     A pedestal the image still carries (``black_level``, e.g. a full-colour
     camera's, which no demosaicing removed) is subtracted first.
     """
+    return _sensor_planes(image) / float(image.gain)
+
+
+def _sensor_planes(image):
+    """The sensor planes (H, W, K) as they are (float32 stays float32; pedestal subtracted), after the
+    checks of :func:`check_renderable`."""
     if image.space != "sensor":
         raise ParameterError("render", f"needs sensor planes, the image is in {image.space!r} space")
     if image.mosaiced:
         raise ParameterError("render", "the image is still mosaiced: demosaic it first (camsim_core.demosaic)")
     if image.sensitivities is None or np.size(image.wavelengths) == 0:
         raise ParameterError("render", "the image carries no sensor sensitivities (give raw_from_array sensitivities=...)")
-    data = np.asarray(subtract_black_level(image).data, float)
+    data = np.asarray(subtract_black_level(image).data)
+    if data.dtype not in (np.float32, np.float64):
+        data = data.astype(np.float64)
     if data.ndim != 3 or data.shape[2] != image.n_sensors:
         raise ParameterError("render", f"expected (H, W, {image.n_sensors}) sensor planes, got {data.shape}")
     if not image.gain > 0:
         raise ParameterError("gain", f"must be > 0, got {image.gain}")
-    return data / float(image.gain)
+    return data
 
 
 def baseline_matrix(sensitivities, primaries, what="camera-monitor matrix T_C B_M"):
@@ -88,9 +96,7 @@ def display_scale(image, monitor, *, white=None, scale=None, linear=None):
 
 def to_frame_buffer(linear, monitor):
     """Linear settings in [0, 1] (clipped) -> gamma-corrected integer frame-buffer values 0..2**bits-1."""
-    full = float(2 ** monitor.bits - 1)
-    settings = monitor.linear_to_settings(np.clip(linear, 0.0, 1.0))
-    return np.rint(settings * full)
+    return monitor.linear_to_frame_buffer(linear)
 
 
 def render_baseline(image, monitor, *, white=None, scale=None):

@@ -33,12 +33,20 @@ def white_xyz(monitor):
 
 
 def to_xyz(rendered, monitor):
-    """(H, W, 3) XYZ in cd/m^2 of a rendered image (``space="monitor"``, frame-buffer values) on ``monitor``."""
+    """(H, W, 3) XYZ in cd/m^2 of a rendered image (``space="monitor"``, frame-buffer values) on ``monitor``.
+
+    In the image's float dtype (a float32 rendering gives float32 XYZ).
+    """
     if getattr(rendered, "space", None) != "monitor":
         raise ParameterError("rendered", f"needs a rendered monitor image (space 'monitor'), got {getattr(rendered, 'space', type(rendered).__name__)!r}")
-    data = np.asarray(rendered.data, float)
+    data = np.asarray(rendered.data)
+    if data.dtype not in (np.float32, np.float64):
+        data = data.astype(np.float64)
     if data.ndim != 3 or data.shape[2] != 3:
         raise ParameterError("rendered", f"expected (H, W, 3) monitor values, got {data.shape}")
-    full = float(2 ** (rendered.bits or monitor.bits) - 1)
-    linear = monitor.settings_to_linear(data / full)
+    bits = rendered.bits or monitor.bits
+    if bits == monitor.bits:
+        linear = monitor.frame_buffer_to_linear(data)  # a 2**bits table: the same numbers
+    else:
+        linear = monitor.settings_to_linear(data / float(2**bits - 1)).astype(data.dtype, copy=False)
     return apply_matrix(linear, monitor_xyz_matrix(monitor))

@@ -195,6 +195,7 @@ def read_simg(path, *, name=None, negative="error", shown=None, max_values=None)
             illum = Spectrum(sampling_wavelengths(*s[:3]), spd, "measured")
     label = name or path.stem
     cube = check_radiance(cube, shown, negative)
+    cube.flags.writeable = False  # our own array: the Scene keeps it without a copy
     try:
         return Scene(cube, wls, distance, angular, "W/sr/m^2 per band", illum, label, t.text("Comments"))
     except ParameterError as exc:
@@ -298,7 +299,8 @@ def read_npz_scene(path, *, name=None, negative="error", shown=None, max_values=
         if not np.all(np.isfinite(iv)) or np.any(iv < 0):
             raise FileFormatError(shown, "'illuminant' must be finite and non-negative (a power spectrum)")
         illum = Spectrum(wls, iv, "from file")
-    cube = check_radiance(arrays["data"].astype(float), shown, negative)
+    cube = check_radiance(arrays["data"], shown, negative)  # float32 stays float32
+    cube.flags.writeable = False  # our own array: the Scene keeps it without a copy
     try:
         return Scene(cube, wls, distance, ar, "W/sr/m^2 per band", illum, name or path.stem, "")
     except ParameterError as exc:

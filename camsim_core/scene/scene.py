@@ -10,7 +10,13 @@ import numpy as np
 from ..errors import ParameterError
 from ..spectra import Spectrum
 
-__all__ = ["Scene", "check_radiance"]
+__all__ = ["Scene", "check_radiance", "radiance_dtype"]
+
+
+def radiance_dtype(data):
+    """The floating dtype a radiance cube keeps: float32 and float64 stay as they are, anything else becomes float64."""
+    dt = np.asarray(data).dtype
+    return dt if dt in (np.float32, np.float64) else np.dtype(np.float64)
 
 
 def check_radiance(data, where, negative="error"):
@@ -18,24 +24,35 @@ def check_radiance(data, where, negative="error"):
 
     ``negative="clip"`` sets negative values to 0 and warns with their count
     (calibrated captures can dip below zero after the scatter correction).
+    A float32 cube stays float32 (half the memory of float64, and every
+    stage runs in it); other types become float64. The checks run on
+    blocks of rows, so they need no full-size temporary.
     """
-    a = np.asarray(data, dtype=float)
+    a = np.asarray(data)
+    a = a.astype(radiance_dtype(a), copy=False)
     if a.ndim != 3:
         raise ParameterError(where, f"radiance must be an (H, W, N) array, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        bad = int(np.count_nonzero(~np.isfinite(a)))
-        raise ParameterError(where, f"radiance has {bad} NaN or infinite values; expected finite, non-negative values")
-    neg = a < 0
-    if neg.any():
-        count = int(np.count_nonzero(neg))
+    nonfinite = negatives = 0
+    for block in _row_blocks(a):
+        nonfinite += int(np.count_nonzero(~np.isfinite(block)))
+        negatives += int(np.count_nonzero(block < 0))
+    if nonfinite:
+        raise ParameterError(where, f"radiance has {nonfinite} NaN or infinite values; expected finite, non-negative values")
+    if negatives:
         if negative == "clip":
-            warnings.warn(f"{where}: {count} negative radiance values clipped to 0", stacklevel=3)
-            a = np.where(neg, 0.0, a)
+            warnings.warn(f"{where}: {negatives} negative radiance values clipped to 0", stacklevel=3)
+            a = np.where(a < 0, a.dtype.type(0), a)
         else:
             raise ParameterError(
-                where, f"radiance has {count} negative values (min {a.min():g}); expected non-negative (load with negative='clip' to clip them)"
+                where, f"radiance has {negatives} negative values (min {a.min():g}); expected non-negative (load with negative='clip' to clip them)"
             )
     return a
+
+
+def _row_blocks(a, target=1 << 22):
+    """Views of ``a`` by blocks of rows of about ``target`` elements."""
+    rows = max(1, target // max(1, a[0].size)) if a.shape[0] else 1
+    return (a[i : i + rows] for i in range(0, a.shape[0], rows))
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,7 +63,9 @@ class Scene:
     ----------
     data : ndarray (H, W, N)
         Radiance, W/sr/m^2 per wavelength band of the sampling (see
-        :mod:`camsim_core.spectra`). Read-only.
+        :mod:`camsim_core.spectra`). Read-only. float32 stays float32
+        (the simulation then runs in single precision), anything else
+        becomes float64. A read-only array is kept as it is (no copy).
     wavelengths : ndarray (N,)
         nm, strictly increasing.
     distance : float
@@ -85,7 +104,7 @@ class Scene:
         ar = tuple(float(v) for v in np.broadcast_to(np.asarray(self.angular_resolution, float), (2,)))
         if not all(np.isfinite(v) and v > 0 for v in ar):
             raise ParameterError(f"{where} angular_resolution", f"must be positive pixels per degree (x, y), got {ar}")
-        data = np.ascontiguousarray(data, dtype=float)
+        data = np.ascontiguousarray(data)
         if data is self.data and data.flags.writeable:
             data = data.copy()  # never freeze or share the caller's own array
         data.flags.writeable = False

@@ -36,6 +36,8 @@ def digitize(camera, image):
     carries ``black_level`` so that processing can subtract it.
 
     ``bits=None``: no quantization; only the pedestal (if any) is added.
+    A float32 image stays float32 up to 24 bits (float32 holds every whole
+    number up to 2**24 exactly); deeper quantization is done in float64.
     """
     black = float(camera.black_level)
     if camera.bits is None:
@@ -43,10 +45,14 @@ def digitize(camera, image):
             return image
         return image.then("digitize", data=np.asarray(image.data, float) + black, black_level=image.black_level + black)
     full = float(2 ** camera.bits - 1)
-    data = np.asarray(image.data, float)
+    data = np.asarray(image.data)
+    # float32 holds every whole number up to 2**24 exactly: deeper raws are rounded in float64
+    dtype = np.float32 if data.dtype == np.float32 and camera.bits <= 24 else np.float64
+    data = data.astype(dtype, copy=False)
     if camera.nonlinearity is not None:
-        data = apply_nonlinearity(data, full, camera.nonlinearity)
+        data = apply_nonlinearity(data, full, camera.nonlinearity).astype(dtype, copy=False)
     if black:
         data = data + black
-    out = np.clip(np.rint(data), 0.0, full)
+    out = np.rint(data)
+    np.clip(out, 0.0, full, out=out)
     return image.then("digitize", data=out, bits=camera.bits, quantized=True, black_level=image.black_level + black)

@@ -38,6 +38,22 @@ def tile_index_map(tile, shape):
     return np.tile(t, reps)[:H, :W]
 
 
+def _one_plane(planes, tile):
+    """planes (H, W, K) -> (H, W): at each tile position, a strided copy of the plane it samples.
+
+    The same values as ``take_along_axis`` with the repeated index map,
+    without building that map (n x m strided copies instead of a full-frame
+    gather).
+    """
+    H, W = planes.shape[:2]
+    out = np.empty((H, W), planes.dtype)
+    n, m = tile.shape
+    for py in range(min(n, H)):
+        for px in range(min(m, W)):
+            out[py::n, px::m] = planes[py::n, px::m, tile[py, px]]
+    return out
+
+
 @stage("mosaic")
 def mosaic(camera, image):
     """Keep at each pixel only the response of the sensor its tile position names.
@@ -50,9 +66,9 @@ def mosaic(camera, image):
     if image.space != "sensor" or image.mosaiced:
         raise ParameterError("mosaic", f"needs full sensor planes, got a {'mosaiced ' if image.mosaiced else ''}{image.space} image")
     tile = check_tile(camera.mosaic, image.data.shape[2], "mosaic")
-    idx = tile_index_map(tile, image.data.shape[:2])
-    if idx.ndim == 2:
-        data = np.take_along_axis(image.data, idx[:, :, None], axis=2)[:, :, 0]
+    if tile.ndim == 2:
+        data = _one_plane(image.data, tile)
     else:
+        idx = tile_index_map(tile, image.data.shape[:2])
         data = np.take_along_axis(image.data, idx, axis=2)
     return image.then("mosaic", data=data, tile=tile, mosaiced=True)

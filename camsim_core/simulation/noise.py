@@ -34,6 +34,9 @@ def noise(camera, image):
 
     ``noise_sigma == 0`` (and, for the photon model, ``read_noise == 0``
     with no shot noise wanted) means a noiseless camera: the stage does nothing.
+
+    A float32 image gets float32 Gaussian deviates (the same distribution,
+    a different random stream than a float64 image of the same seed).
     """
     if camera.noise_model == "gaussian-range":
         return _range_noise(camera, image, np.asarray(image.data, float), np.random.default_rng(camera.seed))
@@ -42,8 +45,17 @@ def noise(camera, image):
     if camera.noise_sigma == 0:
         return image
     rng = np.random.default_rng(camera.seed)
-    data = np.asarray(image.data, float)
-    out = data + camera.noise_mean + rng.normal(0.0, camera.noise_sigma, size=data.shape)
+    data = np.asarray(image.data)
+    if data.dtype == np.float32:
+        # float32 image: float32 normal deviates (numpy's float32 ziggurat, a different stream than
+        # float64's for the same seed, about 2x faster), added in place without float64 temporaries
+        out = rng.standard_normal(size=data.shape, dtype=np.float32)
+        out *= np.float32(camera.noise_sigma)
+        out += data
+        out += np.float32(camera.noise_mean)
+    else:
+        data = np.asarray(data, float)
+        out = data + camera.noise_mean + rng.normal(0.0, camera.noise_sigma, size=data.shape)
     return image.then("noise", data=out, noise_sigma=float(np.hypot(image.noise_sigma, camera.noise_sigma)))
 
 

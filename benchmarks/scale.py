@@ -1,0 +1,314 @@
+"""camsim at sensor sizes: every engine step from 256^2 to 2048^2 x 31 float32 scenes, up to a 12-megapixel raw.
+
+Run: ``python benchmarks/scale.py`` (about 2-4 minutes on 2 shared cores).
+
+The scene at size N is the shipped Cacaphony scene tiled to N x N x 31,
+float32 (real spectra, its illuminant and geometry). The camera is the Kodak
+DCS-200 (IR filter, Bayer) moved to the distance at which the 2048-pixel
+scene fills a 4000 x 3000 sensor, and at every N its pixel array is scaled
+with N (N x 4000/2048 by N x 3000/2048), so the raw has ~2.86 N^2 pixels:
+12 megapixels at N = 2048. Noise sigma 2 DU, 8 bits.
+
+Printed:
+
+1. Per step, the median time (ms) at each size over interleaved repeats (each
+   repeat runs the bare product and then every step once, so all see the same
+   machine load), the fitted exponent of time against pixel count (1.0 is
+   linear), and the ratio to the bare ``cube.reshape(-1, 31) @ W`` in float32
+   at the largest size.
+2. The goals as ratios measured in the same run.
+3. Peak resident memory of the full chain (scene, simulate, bilinear
+   demosaic, baseline render, ideal image, XYZ, CIELAB and S-CIELAB) per size,
+   each in a fresh subprocess: peak RSS minus the RSS before the scene was
+   made, against the scene's own bytes.
+4. Explorer moves (the cached pipeline) on the default scene and on a
+   1024 x 1024 tiled scene through the explorer's default camera.
+
+BLAS is limited to one thread (``OPENBLAS_NUM_THREADS=1``) as ``make serve`` runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import resource  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+SIZES = (256, 512, 1024, 2048)
+RAW_AT_2048 = (3000, 4000)  # rows, columns of the 12-megapixel raw
+
+
+def _rss_mib():
+    """Current resident set size, MiB (Linux /proc)."""
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def _peak_mib():
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def tiled_cube(n, dtype=np.float32):
+    """The Cacaphony scene tiled (mirrored, so no seams) to n x n x 31, in ``dtype``; and the scene."""
+    import camsim_core as cs
+
+    base = cs.load_scene("cacaphony290")
+    b = base.data.astype(dtype)
+    b = np.concatenate([b, b[::-1]], axis=0)
+    b = np.concatenate([b, b[:, ::-1]], axis=1)
+    cube = np.empty((n, n, b.shape[2]), dtype)
+    for y in range(0, n, b.shape[0]):
+        for x in range(0, n, b.shape[1]):
+            blk = b[: n - y, : n - x]
+            cube[y : y + blk.shape[0], x : x + blk.shape[1]] = blk
+    cube.flags.writeable = False  # a read-only array: Scene keeps it without a copy
+    return cube, base
+
+
+def make_scene(n):
+    from camsim_core.scene import Scene
+
+    cube, base = tiled_cube(n)
+    return Scene(cube, base.wavelengths, base.distance, base.angular_resolution, base.unit, base.illuminant, f"cacaphony tiled {n}")
+
+
+def scaled_camera(n):
+    """The DCS-200 at the distance where 2048 scene pixels span 4000 camera pixels, array scaled with n."""
+    import camsim_core as cs
+    from scipy.optimize import brentq
+
+    from camsim_core.simulation import resampled_size
+
+    cam = cs.load_camera("kodak-dcs200-ir")
+    Phi, phi, D = 57.3, cam.angular_resolution[0], 2.375
+    d = brentq(lambda d: resampled_size(2048, Phi, phi, D, d) - 4000.5, 0.5, 10.0)
+    h, w = (max(1, round(n * s / 2048)) for s in RAW_AT_2048)
+    return cam.replace(distance=d, exposure=0.1, f_stop=11.0, noise_sigma=2.0, seed=0, height=h, width=w)
+
+
+def steps(scene, camera):
+    """(name, function) of every engine step, each fed by the previous steps' outputs."""
+    import colour_demosaicing
+
+    import camsim_core as cs
+    from camsim_core import metrics
+    from camsim_core.image import image_from_scene
+    from camsim_core.rendering import white_xyz
+    from camsim_core.simulation import digitize, mosaic, noise, resample, sensor_responses
+
+    mon = cs.load_monitor("simtoolbox-test")
+    st = {}
+
+    def put(key, f):
+        def run():
+            st[key] = f()
+            return st[key]
+
+        return run
+
+    spd = metrics.samples_per_degree(camera)
+    white = white_xyz(mon)
+    other_tile = np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])
+    return [
+        ("sensor_responses", put("s", lambda: sensor_responses(camera, image_from_scene(scene)))),
+        ("resample", put("r", lambda: resample(camera, st["s"]))),
+        ("mosaic", put("m", lambda: mosaic(camera, st["r"]))),
+        ("noise", put("n", lambda: noise(camera, st["m"]))),
+        ("digitize", put("raw", lambda: digitize(camera, st["n"]))),
+        ("demosaic bilinear", put("dem", lambda: cs.demosaic(st["raw"], "bilinear"))),
+        ("  colour-demosaicing bilinear", lambda: colour_demosaicing.demosaicing_CFA_Bayer_bilinear(st["raw"].data, "GRBG")),
+        ("  bilinear, 3x3 tile", lambda: cs.demosaic(st["raw"].replace(tile=other_tile), "bilinear")),
+        ("  demosaic freeman", lambda: cs.demosaic(st["raw"], "freeman")),
+        ("  demosaic bayesian", lambda: cs.demosaic(st["raw"], "bayesian")),
+        ("render baseline", put("ren", lambda: cs.render(st["dem"], mon))),
+        ("ideal image", put("ideal", lambda: cs.ideal_image(scene, camera, mon))),
+        ("xyz (both)", put("xyz", lambda: (cs.to_xyz(st["ren"], mon), cs.to_xyz(st["ideal"], mon)))),
+        ("delta_e CIELAB", lambda: metrics.delta_e(st["xyz"][0], st["xyz"][1], white)),
+        ("S-CIELAB", lambda: metrics.scielab(st["xyz"][0], st["xyz"][1], spd, white)),
+    ]
+
+
+CHAIN = ("sensor_responses", "resample", "mosaic", "noise", "digitize", "demosaic bilinear", "render baseline",
+         "ideal image", "xyz (both)", "delta_e CIELAB", "S-CIELAB")
+SIMULATE = CHAIN[:5]
+
+
+def child_time(n, repeats):
+    """Median ms per step at size n, interleaved with the bare product."""
+    from camsim_core.simulation import sensor_weights
+
+    scene = make_scene(n)
+    camera = scaled_camera(n)
+    weights = sensor_weights(camera, scene.wavelengths)[0].astype(np.float32)
+    cube = scene.data
+    todo = [("bare cube.reshape(-1, 31) @ W", lambda: cube.reshape(-1, cube.shape[2]) @ weights)] + steps(scene, camera)
+    times = {name: [] for name, _ in todo}
+    for _, f in todo:  # warm-up: compiled kernels, FFT plans, tables (not timed)
+        f()
+    for _ in range(repeats):
+        for name, f in todo:
+            t0 = time.perf_counter()
+            out = f()
+            times[name].append(time.perf_counter() - t0)
+            del out
+    return {"n": n, "ms": {k: 1e3 * float(np.median(v)) for k, v in times.items()}, "raw": [camera.height, camera.width],
+            "dtype": str(scene.data.dtype)}
+
+
+def child_memory(n, frame):
+    """Peak RSS of the full chain over the RSS before the scene existed.
+
+    The chain as a script or the CLI runs it: ``simulate`` (its stages'
+    intermediates freed), then bilinear demosaic, baseline render, the
+    ideal image, both XYZ images, CIELAB and S-CIELAB, every result kept.
+    ``frame``: "scaled" (the 12-megapixel geometry) or "dcs200" (the
+    camera's own 1012 x 1524 array).
+    """
+    import camsim_core as cs
+    import colour  # noqa: F401  (imports and their caches are not the chain's)
+    from camsim_core import metrics
+    from camsim_core.rendering import white_xyz
+
+    rss0 = _rss_mib()
+    scene = make_scene(n)
+    camera = scaled_camera(n)
+    if frame == "dcs200":
+        camera = camera.replace(height=1012, width=1524)
+    scene_mib = scene.data.nbytes / 2**20
+    mon = cs.load_monitor("simtoolbox-test")
+    raw = cs.simulate(scene, camera)
+    dem = cs.demosaic(raw, "bilinear")
+    ren = cs.render(dem, mon)
+    ideal = cs.ideal_image(scene, camera, mon)
+    xyz, ixyz = cs.to_xyz(ren, mon), cs.to_xyz(ideal, mon)
+    white = white_xyz(mon)
+    de = metrics.delta_e(xyz, ixyz, white)
+    sde = metrics.scielab(xyz, ixyz, metrics.samples_per_degree(camera), white)
+    return {"n": n, "scene_mib": scene_mib, "rss0": rss0, "peak_mib": _peak_mib(), "dtype": str(scene.data.dtype),
+            "frame": list(raw.data.shape), "mean_de": float(de.mean()), "mean_scielab": float(sde.mean())}
+
+
+def child_explorer(repeats):
+    """Median engine ms of explorer moves on the default scene and a 1024^2 tiled one."""
+    import camsim_core as cs
+    from camsim_core.cache import Pipeline, Processing
+
+    camera = cs.load_camera("kodak-dcs200-ir").replace(distance=3.32, exposure=0.1, f_stop=11.0, noise_sigma=0.0, seed=0)
+    out = {}
+    for label, scene in (("default scene 182x290", cs.load_scene("cacaphony290")), ("1024x1024 scene", make_scene(1024))):
+        shape = cs.simulate(scene, camera).data.shape
+        for move, pair in (
+            ("noise 0<->2, CIELAB", [(camera, Processing(metrics=("cielab",))), (camera.replace(noise_sigma=2.0), Processing(metrics=("cielab",)))]),
+            ("noise 0<->2, S-CIELAB", [(camera, Processing()), (camera.replace(noise_sigma=2.0), Processing())]),
+            ("exposure 0.1<->0.12, CIELAB", [(camera, Processing(metrics=("cielab",))), (camera.replace(exposure=0.12), Processing(metrics=("cielab",)))]),
+        ):
+            pipe = Pipeline()
+            pipe.run(scene, *pair[0])
+            pipe.run(scene, *pair[1])
+            ts = []
+            for i in range(repeats):
+                r = pipe.run(scene, *pair[i % 2])
+                ts.append(r.seconds)
+            out[f"{label} -> {shape[0]}x{shape[1]}: {move}"] = 1e3 * float(np.median(ts))
+    return out
+
+
+def _child(args):
+    cmd = [sys.executable, __file__] + args
+    res = subprocess.run(cmd, capture_output=True, text=True, env=os.environ.copy())
+    if res.returncode != 0:
+        raise SystemExit(f"{' '.join(args)} failed:\n{res.stderr}")
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def exponent(pixels, ms):
+    """Least-squares slope of log(time) against log(pixels)."""
+    return float(np.polyfit(np.log(pixels), np.log(ms), 1)[0])
+
+
+def main(args):
+    print(f"camsim scale benchmark; BLAS threads {os.environ.get('OPENBLAS_NUM_THREADS')}; sizes {args.sizes}; "
+          f"float32 scenes (Cacaphony tiled); medians of interleaved repeats")
+    results = []
+    for n in args.sizes:
+        reps = args.repeats if n >= 1024 else 2 * args.repeats
+        results.append(_child(["--child-time", str(n), "--repeats", str(reps)]))
+        print(f"  timed {n}^2 ({reps} repeats)", file=sys.stderr)
+    names = list(results[0]["ms"])
+    pixels = [r["raw"][0] * r["raw"][1] for r in results]
+    head = "".join(f"{'%d^2->%dx%d' % (r['n'], r['raw'][0], r['raw'][1]):>20s}" for r in results)
+    print(f"\n{'step (ms)':34s}{head}{'exponent':>10s}{'x bare':>8s}")
+    last = results[-1]["ms"]
+    bare = last["bare cube.reshape(-1, 31) @ W"]
+    for name in names:
+        ms = [r["ms"][name] for r in results]
+        print(f"{name:34s}" + "".join(f"{m:20.1f}" for m in ms) + f"{exponent(pixels, ms):10.2f}{last[name] / bare:8.2f}")
+    for label, keys in (("simulate (5 stages)", SIMULATE), ("full chain", CHAIN)):
+        ms = [sum(r["ms"][k] for k in keys) for r in results]
+        print(f"{label:34s}" + "".join(f"{m:20.1f}" for m in ms) + f"{exponent(pixels, ms):10.2f}{ms[-1] / bare:8.2f}")
+
+    big = results[-1]
+    sim = sum(last[k] for k in SIMULATE)
+    bil = last["demosaic bilinear"]
+    print(f"\nGoals at {big['n']}^2 x 31 {big['dtype']} -> {big['raw'][0]} x {big['raw'][1]} raw (same run):")
+    goals = [
+        ("simulate / bare float32 matmul", sim / bare, 4.0),
+        ("bilinear / colour-demosaicing bilinear (Bayer)", bil / last["  colour-demosaicing bilinear"], 1.0),
+        ("bilinear 3x3 tile / colour-demosaicing bilinear (Bayer)", last["  bilinear, 3x3 tile"] / last["  colour-demosaicing bilinear"], 1.0),
+        ("freeman / bilinear", last["  demosaic freeman"] / bil, 3.0),
+        ("bayesian / bilinear", last["  demosaic bayesian"] / bil, 2.0),
+    ]
+    worst = max(exponent(pixels, [r["ms"][k] for r in results]) for k in names if not k.startswith("bare"))
+    goals.append(("largest fitted exponent of any step", worst, 1.05))
+    if not args.no_memory:
+        print("\nPeak memory of the full chain (fresh subprocess per size; chain = peak RSS - RSS before the scene):")
+        print(f"{'scene':>10s}{'raw':>12s}{'scene MiB':>11s}{'peak RSS MiB':>14s}{'chain MiB':>11s}{'x scene':>9s}")
+        for frame in ("dcs200", "scaled"):
+            for n in args.sizes:
+                m = _child(["--child-memory", str(n), "--frame", frame])
+                chain = m["peak_mib"] - m["rss0"]
+                raw = "x".join(str(v) for v in m["frame"])
+                print(f"{f'{n}^2':>10s}{raw:>12s}{m['scene_mib']:11.0f}{m['peak_mib']:14.0f}{chain:11.0f}{chain / m['scene_mib']:9.2f}")
+            goals.append((f"chain peak memory / scene bytes, {n}^2 -> {raw}", chain / m["scene_mib"], 2.0))
+    for label, value, target in goals:
+        print(f"  {label:58s} {value:7.2f}   target <= {target:g}   {'ok' if value <= target else 'NOT MET'}")
+    if not args.no_explorer:
+        print("\nExplorer moves (engine ms, median; explorer default camera DCS-200 at 3.32 m):")
+        for k, v in _child(["--child-explorer", str(args.repeats * 3)]).items():
+            print(f"  {k:70s} {v:8.1f}")
+        print("  targets: < 25 ms on the default scene, < 150 ms at 1024^2")
+    return 0
+
+
+def _parse():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--sizes", type=int, nargs="+", default=list(SIZES))
+    p.add_argument("--repeats", type=int, default=3, help="repeats at 1024^2 and above (twice as many below)")
+    p.add_argument("--no-memory", action="store_true")
+    p.add_argument("--no-explorer", action="store_true")
+    p.add_argument("--child-time", type=int, help=argparse.SUPPRESS)
+    p.add_argument("--child-memory", type=int, help=argparse.SUPPRESS)
+    p.add_argument("--frame", default="scaled", help=argparse.SUPPRESS)
+    p.add_argument("--child-explorer", type=int, help=argparse.SUPPRESS)
+    return p.parse_args()
+
+
+if __name__ == "__main__":
+    a = _parse()
+    if a.child_time:
+        print(json.dumps(child_time(a.child_time, a.repeats)))
+    elif a.child_memory:
+        print(json.dumps(child_memory(a.child_memory, a.frame)))
+    elif a.child_explorer:
+        print(json.dumps(child_explorer(a.child_explorer)))
+    else:
+        sys.exit(main(a))

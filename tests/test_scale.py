@@ -1,0 +1,372 @@
+"""The engine at sensor sizes: dtype kept, fast paths equal to the plain formulas, small sweeps in-process."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+
+import colour
+import numpy as np
+import pytest
+from scipy import ndimage
+
+import camsim_core as cs
+from camsim_core import metrics
+from camsim_core.cache import Pipeline, Processing
+from camsim_core.demosaicing.bilinear import bilinear_planes, tent
+from camsim_core.errors import ParameterError
+from camsim_core.experiments.runner import MIN_CLUSTER_TASKS, choose_workers
+from camsim_core.image import image_from_scene
+from camsim_core.scene import Scene
+from camsim_core.simulation import BAYER, mosaic, resample, tile_index_map
+
+W31 = np.arange(400, 701, 10.0)
+
+
+@pytest.fixture(scope="module")
+def base():
+    return cs.load_scene("cacaphony290")
+
+
+@pytest.fixture(scope="module")
+def camera():
+    return cs.load_camera("kodak-dcs200-ir").replace(distance=3.32, exposure=0.1, f_stop=11.0, seed=0)
+
+
+def _as32(scene):
+    d = scene.data.astype(np.float32)
+    return Scene(d, scene.wavelengths, scene.distance, scene.angular_resolution, scene.unit, scene.illuminant, scene.name)
+
+
+# -- dtype ------------------------------------------------------------------
+def test_float32_scene_stays_float32_and_a_read_only_array_is_not_copied():
+    cube = np.random.default_rng(0).uniform(0, 1, (8, 9, 31)).astype(np.float32)
+    cube.flags.writeable = False
+    s = Scene(cube, W31)
+    assert s.data.dtype == np.float32 and np.shares_memory(s.data, cube)
+    writable = cube.copy()
+    s2 = Scene(writable, W31)
+    assert s2.data.dtype == np.float32 and not np.shares_memory(s2.data, writable)  # the caller's array is never frozen
+    assert Scene(cube.astype(np.float16), W31).data.dtype == np.float64
+    assert Scene(np.ones((2, 2, 31), int), W31).data.dtype == np.float64
+
+
+def test_npz_float32_scene_loads_as_float32(tmp_path):
+    p = tmp_path / "s.npz"
+    np.savez(p, data=np.ones((4, 5, 31), np.float32), wavelengths=W31)
+    assert cs.load_scene(p).data.dtype == np.float32
+
+
+def test_float32_chain_keeps_float32_and_matches_float64(base, camera):
+    """Every stage in float32 on a float32 scene; the 8-bit raw equals the float64 one except where a value
+    lies within float32 rounding of a half step (at most 1 DU, a handful of pixels)."""
+    s32 = _as32(base)
+    cam = camera.replace(noise_sigma=0.0)
+    r64, r32 = cs.simulate(base, cam), cs.simulate(s32, cam)
+    assert r32.data.dtype == np.float32 and r64.data.dtype == np.float64
+    diff = np.abs(r32.data - r64.data)
+    assert diff.max() <= 1 and np.mean(diff > 0) < 1e-3
+    mon = cs.load_monitor("simtoolbox-test")
+    d32, d64 = cs.demosaic(r32, "bilinear"), cs.demosaic(r64, "bilinear")
+    assert d32.data.dtype == np.float32
+    np.testing.assert_allclose(d32.data, d64.data, atol=1.0)
+    same = cs.demosaic(r64.replace(data=r64.data.astype(np.float32)), "bilinear").data
+    np.testing.assert_allclose(same, d64.data, rtol=1e-6, atol=1e-4)  # same raw: float32 rounding only
+    x32 = cs.to_xyz(cs.render(d32, mon), mon)
+    assert x32.dtype == np.float32
+    i32 = cs.to_xyz(cs.ideal_image(s32, cam, mon), mon)
+    i64 = cs.to_xyz(cs.ideal_image(base, cam, mon), mon)
+    assert i32.dtype == np.float32
+    white = cs.rendering.white_xyz(mon)
+    de32 = metrics.scielab(x32, i32, 102.6, white)
+    de64 = metrics.scielab(cs.to_xyz(cs.render(d64, mon), mon), i64, 102.6, white)
+    assert de32.dtype == np.float32
+    assert abs(float(de32.mean()) - float(de64.mean())) < 0.05
+
+
+def test_float32_noise_has_its_sigma_and_mean(camera):
+    img = image_from_scene(Scene(np.full((200, 300, 31), 0.01, np.float32), W31, distance=3.32))
+    cam = camera.replace(noise_sigma=3.0, noise_mean=1.5, mosaic=None, bits=None, seed=4)
+    out = cs.simulation.noise(cam, cs.simulation.sensor_responses(cam, img))
+    clean = cs.simulation.sensor_responses(cam, img).data
+    d = out.data - clean
+    assert out.data.dtype == np.float32
+    assert abs(d.std() - 3.0) < 0.03 and abs(d.mean() - 1.5) < 0.03
+    again = cs.simulation.noise(cam, cs.simulation.sensor_responses(cam, img))
+    np.testing.assert_array_equal(again.data, out.data)  # seeded
+
+
+def test_deep_float32_raw_is_rounded_in_float64(camera):
+    img = image_from_scene(Scene(np.full((4, 4, 31), 0.01, np.float32), W31)).replace(
+        data=np.full((4, 4), 2.0**25 + 1, np.float32), space="sensor")
+    out = cs.simulation.digitize(camera.replace(bits=26), img)
+    assert out.data.dtype == np.float64
+    small = cs.simulation.digitize(camera.replace(bits=8), img.replace(data=np.full((4, 4), 7.6, np.float32)))
+    assert small.data.dtype == np.float32 and np.all(small.data == 8)
+
+
+# -- resampling ---------------------------------------------------------------
+def _dense_axis(N, Phi, phi, D, d, limit):
+    """Eq. 1.2 weights as a dense matrix, written independently of the engine."""
+    size = 2 * phi * np.degrees(np.arctan((D / d) * np.tan(np.radians(N / (2 * Phi)))))
+    n = max(int(round(size)), 1)
+    to_scene = lambda p: Phi * np.degrees(np.arctan((d / D) * np.tan(np.radians(p / phi))))  # noqa: E731
+    m = np.zeros((n, N))
+    if n < N:
+        edges = to_scene(np.arange(n + 1) - n / 2) + N / 2
+        for j in range(n):
+            for k in range(N):
+                m[j, k] = max(0.0, min(edges[j + 1], k + 1) - max(edges[j], k))
+        m /= m.sum(axis=1, keepdims=True)
+    else:
+        c = np.clip(to_scene(np.arange(n) + 0.5 - n / 2) + N / 2 - 0.5, 0, N - 1)
+        for j, x in enumerate(c):
+            i0 = int(np.floor(x))
+            m[j, i0] += 1 - (x - i0)
+            m[j, min(i0 + 1, N - 1)] += x - i0
+    if limit is not None and n > limit:
+        s = (n - limit) // 2
+        m = m[s : s + limit]
+    return m
+
+
+@pytest.mark.parametrize("d, limit", [(3.32, 50), (1.2, 400), (6.0, None)])  # area averaging, interpolation, both crops
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_resample_equals_dense_eq_1_2_matrices(camera, d, limit, dtype):
+    H, W = 61, 87
+    data = np.random.default_rng(1).uniform(0, 1, (H, W, 3)).astype(dtype)
+    img = image_from_scene(Scene(np.ones((H, W, 31)), W31, distance=2.0, angular_resolution=(57.3, 40.0))).replace(data=data, space="sensor")
+    cam = camera.replace(distance=d, angular_resolution=(102.6, 80.0), height=limit or 10000, width=limit or 10000)
+    out = resample(cam, img).data
+    my = _dense_axis(H, 40.0, 80.0, 2.0, d, limit)
+    mx = _dense_axis(W, 57.3, 102.6, 2.0, d, limit)
+    ref = np.einsum("ij,jkc,lk->ilc", my, data.astype(float), mx, optimize=True)
+    assert out.dtype == dtype and out.shape == ref.shape
+    np.testing.assert_allclose(out, ref, rtol=0, atol=1e-12 if dtype == np.float64 else 1e-6)
+
+
+@pytest.mark.parametrize("tile", [BAYER["GRBG"], np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]]), np.array([[2, 0, 1, 1]])])
+def test_strided_mosaic_equals_index_map(camera, tile):
+    data = np.random.default_rng(2).uniform(0, 9, (23, 17, 3))
+    img = image_from_scene(Scene(np.ones((2, 2, 31)), W31)).replace(data=data, space="sensor")
+    out = mosaic(camera.replace(mosaic=tile), img).data
+    ref = np.take_along_axis(data, tile_index_map(tile, (23, 17))[:, :, None], axis=2)[:, :, 0]
+    np.testing.assert_array_equal(out, ref)
+
+
+# -- demosaicing ---------------------------------------------------------------
+def _bilinear_reference(data, tile, k):
+    """Normalized convolution over full-frame sample and count planes (the textbook form)."""
+    idx = np.tile(tile, (-(-data.shape[0] // tile.shape[0]), -(-data.shape[1] // tile.shape[1]), 1))[: data.shape[0], : data.shape[1]]
+    ky, kx = tent(tile.shape[0]), tent(tile.shape[1])
+    sep = lambda p: ndimage.correlate1d(ndimage.correlate1d(p, ky, axis=0, mode="constant"), kx, axis=1, mode="constant")  # noqa: E731
+    out = np.empty(data.shape[:2] + (k,))
+    for c in range(k):
+        vals = np.where(idx == c, data, 0.0).sum(axis=2)
+        count = (idx == c).sum(axis=2).astype(float)
+        est = sep(vals) / np.where(sep(count) > 0, sep(count), 1)
+        out[:, :, c] = np.where(count > 0, vals / np.maximum(count, 1), est)
+    return out
+
+
+@pytest.mark.parametrize("tile", [
+    BAYER["RGGB"][:, :, None],
+    np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])[:, :, None],
+    np.array([[0, 1], [2, 3]])[:, :, None],
+    np.array([[0, 1, 1, 2, 0]])[:, :, None],
+    np.stack([BAYER["GRBG"], BAYER["GRBG"][::-1]], axis=2),  # tiered: two samples at a pixel
+])
+@pytest.mark.parametrize("shape", [(31, 45), (5, 7), (2, 3)])
+def test_bilinear_equals_normalized_convolution(tile, shape):
+    k = int(tile.max()) + 1
+    data = np.random.default_rng(3).uniform(0, 255, shape + (tile.shape[2],))
+    out = bilinear_planes(data, tile, k)
+    np.testing.assert_allclose(out, _bilinear_reference(data, tile, k), rtol=1e-12, atol=1e-9)
+    out32 = bilinear_planes(data.astype(np.float32), tile, k)
+    assert out32.dtype == np.float32
+    np.testing.assert_allclose(out32, out, rtol=1e-5, atol=1e-3)
+
+
+# -- monitor tables --------------------------------------------------------------
+@pytest.mark.parametrize("name", ["simtoolbox-test", "brainard-crt"])
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_frame_buffer_table_is_identical_to_interpolation(name, dtype):
+    m = cs.load_monitor(name)
+    rng = np.random.default_rng(5)
+    x = np.concatenate([rng.random(150_000), rng.random(60_000) ** 8, np.linspace(0, 1, 90_000), [0.0, 1.0, 5e-324]])
+    x = x[: x.size // 3 * 3].astype(dtype).reshape(-1, 1, 3)
+    # every bucket edge of the table and its neighbours
+    e = (np.arange(0, 1 << 16, 97) / (1 << 16)).astype(dtype)
+    edges = np.concatenate([e, np.nextafter(e, dtype(0)), np.nextafter(e, dtype(1))])
+    edges = edges[: edges.size // 3 * 3].reshape(-1, 1, 3)
+    for v in (x, edges):
+        ref = np.rint(m.linear_to_settings(v) * 255)
+        out = m.linear_to_frame_buffer(v)
+        assert out.dtype == dtype
+        np.testing.assert_array_equal(out, ref)
+    fb = np.floor(rng.random((1000, 1, 3)) * 256)
+    np.testing.assert_array_equal(m.frame_buffer_to_linear(fb), m.settings_to_linear(fb / 255.0))
+    np.testing.assert_array_equal(m.frame_buffer_to_linear(fb + 0.5), m.settings_to_linear((fb + 0.5) / 255.0))
+
+
+# -- metrics ------------------------------------------------------------------------
+def test_numpy_lab_matches_colour_science():
+    rng = np.random.default_rng(6)
+    white = np.array([95.0, 100.0, 108.0])
+    xyz = np.concatenate([rng.uniform(0, 120, (5000, 3)), rng.uniform(0, 0.5, (5000, 3))])  # both branches of f
+    ref = colour.XYZ_to_Lab(xyz, colour.XYZ_to_xyY(white))
+    np.testing.assert_allclose(metrics.xyz_to_lab(xyz, white), ref, rtol=1e-12, atol=1e-10)
+    np.testing.assert_allclose(metrics.delta_e(xyz[:5000], xyz[5000:], white), colour.delta_E(
+        ref[:5000], ref[5000:], method="CIE 1976"), rtol=1e-12)
+    lab32 = metrics.xyz_to_lab(xyz.astype(np.float32), white)
+    assert lab32.dtype == np.float32
+    np.testing.assert_allclose(lab32, ref, atol=2e-4)
+
+
+def test_scielab_bands_give_the_numbers_of_one_transform(monkeypatch):
+    from camsim_core.metrics import s_cielab
+
+    rng = np.random.default_rng(7)
+    a = ndimage.gaussian_filter(rng.uniform(5, 80, (70, 53, 3)), (1, 1, 0))
+    b = a + rng.normal(0, 2, a.shape)
+    white = np.array([95.0, 100.0, 108.0])
+    whole = metrics.scielab(a, b, 30.0, white)  # one band: 70 rows < 512
+    monkeypatch.setattr(s_cielab, "BAND_ROWS", 9)
+    banded = metrics.scielab(a, b, 30.0, white)
+    np.testing.assert_allclose(banded, whole, rtol=0, atol=1e-9)
+    single = metrics.scielab(a.astype(np.float32), b.astype(np.float32), 30.0, white)
+    assert single.dtype == np.float32
+    np.testing.assert_allclose(single, whole, atol=2e-3)
+
+
+def test_pipeline_keeps_the_ideal_lab_and_still_gives_fresh_numbers(base, camera, monkeypatch):
+    from camsim_core.metrics import s_cielab
+
+    calls = []
+    real = s_cielab.filtered_lab
+    monkeypatch.setattr(metrics, "filtered_lab", lambda *a: calls.append(1) or real(*a))
+    p = Pipeline()
+    p.run(base, camera, Processing())
+    assert len(calls) == 2  # camera and ideal image
+    moved = camera.replace(noise_sigma=2.0)
+    r = p.run(base, moved, Processing())
+    assert len(calls) == 3  # only the camera image's side again
+    fresh = metrics.scielab(r.xyz, r.ideal_xyz, metrics.samples_per_degree(r.rendered), r.white)
+    np.testing.assert_array_equal(r.scielab, fresh)
+    np.testing.assert_array_equal(r.delta_e, metrics.delta_e(r.xyz, r.ideal_xyz, r.white))
+
+
+# -- experiments runner -------------------------------------------------------------
+def test_choose_workers():
+    assert choose_workers(10) is None  # a small sweep: in this process
+    assert choose_workers(MIN_CLUSTER_TASKS - 1) is None
+    assert choose_workers(MIN_CLUSTER_TASKS, cpus=2) == 2
+    assert choose_workers(500, 0) is None
+    assert choose_workers(3, 8) == 3  # never more workers than tasks
+    with pytest.raises(ParameterError, match="workers"):
+        choose_workers(5, -1)
+
+
+def test_small_sweep_runs_in_process_by_default(tmp_path, capsys):
+    from camsim_core.cli import main
+
+    status = main(["experiment", "sensors", "--scenes", "stripes", "--alphas", "0,1", "--sigmas", "0",
+                   "--no-progress", "--out", str(tmp_path / "out")])
+    assert status == 0
+    assert "2 tasks on this process" in capsys.readouterr().out
+
+
+def test_cluster_sweep_leaves_no_process_behind(tmp_path):
+    """The command's whole process group (scheduler, workers, their helpers) is gone when it ends."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.dirname(os.path.dirname(cs.__file__))] + sys.path))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "camsim_core.cli", "experiment", "sensors", "--scenes", "stripes", "--alphas", "0,1",
+         "--sigmas", "0", "--workers", "1", "--no-progress", "--out", str(tmp_path / "out")],
+        start_new_session=True, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    out, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    assert "local Dask cluster of 1 worker" in out
+    deadline = time.monotonic() + 20
+    while True:  # start_new_session: the group id is the command's pid; exited children are reaped by init
+        try:
+            os.killpg(proc.pid, 0)
+        except ProcessLookupError:
+            break
+        assert time.monotonic() < deadline, "processes of the command are still running"
+        time.sleep(0.2)
+
+
+# -- the command line at 12 megapixels -------------------------------------------------
+def test_cli_simulates_a_12_megapixel_raw(tmp_path, capsys):
+    import tifffile
+
+    from camsim_core.cli import main
+    from camsim_core.simulation import resampled_size
+
+    p = tmp_path / "scene.npz"
+    rng = np.random.default_rng(8)
+    np.savez(p, data=rng.uniform(0, 0.05, (160, 160, 31)).astype(np.float32), wavelengths=W31,
+             distance=2.0, angular_resolution=[57.3, 57.3])
+    # a distance at which the 160-pixel scene spans more than 4000 DCS-200 pixels
+    d = 2.0 * 102.6 / 57.3 * 160 / 4300
+    assert resampled_size(160, 57.3, 102.6, 2.0, d) > 4000
+    out = tmp_path / "raw.tif"
+    status = main(["simulate", "--scene", str(p), "--camera", "kodak-dcs200-ir", "--distance", f"{d:.6f}",
+                   "--size", "3000x4000", "--exposure", "1", "--noise-sigma", "1", "--out", str(out)])
+    assert status == 0
+    raw = tifffile.imread(out)
+    assert raw.shape == (3000, 4000) and raw.dtype == np.uint8
+    assert "3000 x 4000" in capsys.readouterr().out
+
+
+def test_cli_progress_bar_counts_the_steps(tmp_path, capsys, base, camera):
+    from camsim_core.cli.simulate import _run_with_progress
+
+    steps = [(s.__name__, lambda im, s=s: s(camera, im)) for s in camera.architecture]
+    _run_with_progress(image_from_scene(base), steps, tmp_path / "r.tif", disable=False)
+    err = capsys.readouterr().err
+    assert "simulate" in err and "6/6" in err
+    assert (tmp_path / "r.tif").exists()
+
+
+def test_cli_size_is_checked(tmp_path, capsys):
+    from camsim_core.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["simulate", "--scene", "macbeth", "--camera", "kodak-dcs200-ir", "--size", "12by4", "--out", str(tmp_path / "x.tif")])
+    assert "ROWSxCOLS" in capsys.readouterr().err
+    assert not (tmp_path / "x.tif").exists()
+
+
+@pytest.mark.parametrize("shape, size", [((50, 61), 5), ((7, 9), 3), ((40, 33), 7), ((3, 300), 5), ((6, 6), 4)])
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_freeman_median_equals_scipy(shape, size, dtype):
+    from camsim_core.demosaicing._median import median_filter
+
+    x = np.random.default_rng(9).random(shape)
+    x[::3] = np.round(x[::3], 1)  # ties
+    x = x.astype(dtype)
+    np.testing.assert_array_equal(median_filter(x, size), ndimage.median_filter(x, size=size, mode="mirror"))
+
+
+def test_to_screen_block_means():
+    from camsim_core.screen import to_screen
+
+    img = np.random.default_rng(10).uniform(0, 255, (3000, 4000, 3)).astype(np.float32)
+    view, block = to_screen(img, (1000, 1600))
+    assert block == 3 and view.shape == (1000, 1334, 3) and view.dtype == np.float32
+    np.testing.assert_allclose(view[5, 7], img[15:18, 21:24].reshape(-1, 3).mean(axis=0), rtol=1e-5)
+    np.testing.assert_allclose(view[-1, -1], img[2997:, 3999:].reshape(-1, 3).mean(axis=0), rtol=1e-5)  # partial block
+    np.testing.assert_allclose(view.mean(), img[:, :4000].mean(), rtol=1e-3)
+    # zoomed in: a region small enough is sent at full resolution
+    detail, b = to_screen(img, (1000, 1600), region=(100, 200, 500, 800))
+    assert b == 1 and np.array_equal(detail, img[100:600, 200:1000])
+    small, b = to_screen(np.arange(12).reshape(3, 4), (2, 2))
+    assert b == 2 and np.allclose(small, [[2.5, 4.5], [8.5, 10.5]])
+    with pytest.raises(ParameterError, match="region"):
+        to_screen(img, region=(0, 0, 0, 5))
+    with pytest.raises(ParameterError, match="data"):
+        to_screen(np.zeros(5))
