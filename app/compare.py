@@ -98,6 +98,60 @@ class DesignStore:
         return sum(r.nbytes for r in self._items.values())
 
 
+class HistogramPlot:
+    """Overlaid dE histograms, one step curve per design with its mean (solid) and median (dashed).
+
+    A Bokeh figure with a fixed set of renderers whose data, labels and
+    visibility are updated in place (a live move re-draws in milliseconds).
+    """
+
+    EDGES = np.linspace(0, 30, 61)
+
+    def __init__(self):
+        from bokeh.models import ColumnDataSource, Legend, LegendItem, Span
+        from bokeh.plotting import figure
+
+        self.figure = figure(width=600, height=270, x_axis_label="dE (values above 30 in the last bin)",
+                             y_axis_label="fraction of pixels", tools="pan,wheel_zoom,box_zoom,reset,save",
+                             title="Overlaid CIELAB dE histograms (mean solid, median dashed)")
+        self.sources = [ColumnDataSource(data={"x": [], "y": []}) for _ in range(SLOTS)]
+        self.lines, self.means, self.medians, items = [], [], [], []
+        for i, src in enumerate(self.sources):
+            colour = DESIGN_COLOURS[i % len(DESIGN_COLOURS)]
+            line = self.figure.step("x", "y", source=src, mode="after", color=colour, line_width=2, visible=False)
+            mean = Span(location=0, dimension="height", line_color=colour, line_width=1, visible=False)
+            median = Span(location=0, dimension="height", line_color=colour, line_width=1, line_dash="dashed",
+                          visible=False)
+            self.figure.add_layout(mean)
+            self.figure.add_layout(median)
+            self.lines.append(line)
+            self.means.append(mean)
+            self.medians.append(median)
+            items.append(LegendItem(label="", renderers=[line], visible=False))
+        self.legend = Legend(items=items, location="top_right")
+        self.figure.add_layout(self.legend)
+
+    def update(self, items, metric):
+        """Show ``items``, a list of (name, dE map), for ``metric`` ("CIELAB" or "S-CIELAB")."""
+        self.figure.title.text = f"Overlaid {metric} dE histograms (mean solid, median dashed)"
+        for i in range(SLOTS):
+            v = None
+            if i < len(items):
+                v = np.asarray(items[i][1], float)
+                v = v[np.isfinite(v)]
+            shown = v is not None and v.size > 0
+            if shown:
+                counts, _ = np.histogram(np.clip(v, 0, 30), self.EDGES)
+                mean, median = float(np.mean(v)), float(np.median(v))
+                self.sources[i].data = {"x": self.EDGES[:-1], "y": counts / v.size}
+                self.means[i].location, self.medians[i].location = mean, median
+                self.legend.items[i].label = {"value": f"{items[i][0]}: mean {mean:.2f}, median {median:.2f}"}
+            else:
+                self.legend.items[i].label = {"value": ""}
+            for model in (self.lines[i], self.means[i], self.medians[i], self.legend.items[i]):
+                model.visible = shown
+
+
 class CompareView:
     """Everything on the Compare designs tab, following one :class:`~app.state.ExplorerState`."""
 
@@ -111,12 +165,15 @@ class CompareView:
         self._sweep_cancel = None
         self._computing = False
         self.ab = None  # (name A, name B, ab_difference) shown
+        self._ab_inputs = None  # the arrays the A/B map was computed from (identity)
+        self._live = (None, None, None)  # (pipeline result, metric, DesignResult)
+        self._pending = False
         self._doc = pn.state.curdoc
         self._built = False  # the plots are made when there is something to compare (a light page until then)
         self._build_widgets()
         state.param.watch(self._on_pinned, ["pinned"])
         state.param.watch(lambda e: self.refresh(), ["scene", "viewing"])
-        state.param.watch(lambda e: self.update(), ["result", "metric"])
+        state.param.watch(lambda e: self._request_update(), ["result", "metric"])
         state.param.watch(self._on_sweep, ["sweep"])
         self._on_pinned()
         if state.sweep:
@@ -197,9 +254,9 @@ class CompareView:
                 hv.opts.Image(cmap="inferno", colorbar=True, **IMAGE_OPTS)),
                 css_classes=["camsim-compare-de"], linked_axes=True, visible=False)
             for p in self.de_pipes]
-        # the histogram and the sweep plot change their number of curves: their pane gets a new overlay
-        self.hist_pane = pn.pane.HoloViews(self._histograms(([], "CIELAB")), css_classes=["camsim-compare-hist"],
-                                           linked_axes=False)
+        self.histogram = HistogramPlot()
+        self.hist_pane = pn.pane.Bokeh(self.histogram.figure, css_classes=["camsim-compare-hist"])
+        # the sweep plot changes its number of curves as designs are swept: its pane gets a new overlay
         self.ab_pipe = streams.Pipe(data=(np.zeros((2, 2)), np.zeros((2, 2, 3)), 20.0))
         ab_de = hv.DynamicMap(lambda data: hv.Image(data[0], bounds=_bounds(data[0].shape), vdims=["dE"]).opts(
             clim=(0, data[2]), title="A/B: dE between the renderings"), streams=[self.ab_pipe]).opts(
@@ -338,14 +395,32 @@ class CompareView:
                 self._sweep_cancel.set()
 
     # -- the designs shown ---------------------------------------------------------
+    def _request_update(self):
+        """After a live move: update once the explorer's own views have been sent (next tick on a server)."""
+        doc = self._server_doc()
+        if doc is None:
+            self.update()
+        elif not self._pending:
+            self._pending = True
+            self._schedule(self._deferred_update)
+
+    def _deferred_update(self):
+        self._pending = False
+        self.update()
+
     def live_result(self):
+        """The live design as a DesignResult (the explorer's own result; made once per result)."""
         res = self.state.result
         if res is None:
             return None
+        if self._live[0] is res and self._live[1] == self.state.metric:
+            return self._live[2]
         try:
-            return result_from_pipeline(res, {**self.state.design_params()}, LIVE, self.state.processing())
+            live = result_from_pipeline(res, {**self.state.design_params()}, LIVE, self.state.processing())
         except CamsimError:
-            return None
+            live = None
+        self._live = (res, self.state.metric, live)
+        return live
 
     def designs(self):
         """The DesignResults compared: the live design (unless equal to a pinned one), then the pinned ones."""
@@ -390,8 +465,8 @@ class CompareView:
             else:
                 self._shown[i] = None
             self.render_panes[i].visible = self.de_panes[i].visible = i < len(results)
-        self.hist_pane.object = self._histograms((
-            [(r.name, r.error_map(metric) if r.error_map(metric) is not None else r.delta_e) for r in results], metric))
+        self.histogram.update([(r.name, r.error_map(metric) if r.error_map(metric) is not None else r.delta_e)
+                               for r in results], metric)
         names = [r.name for r in results]
         a, b = self.a_select.value, self.b_select.value
         self.a_select.options = names
@@ -420,27 +495,6 @@ class CompareView:
         return (f'{style}<table class="cmp"><thead><tr><th>parameter / measure</th>{head}</tr></thead>'
                 f"<tbody>{''.join(rows)}</tbody></table>{note}")
 
-    def _histograms(self, data):
-        items, metric = data
-        edges = np.linspace(0, 30, 61)
-        layers = [hv.Curve([], "dE", "fraction of pixels")]
-        for i, (name, values) in enumerate(items):
-            v = np.asarray(values, float)
-            v = v[np.isfinite(v)]
-            if not v.size:
-                continue
-            counts, _ = np.histogram(np.clip(v, 0, 30), edges)
-            colour = DESIGN_COLOURS[i % len(DESIGN_COLOURS)]
-            mean, median = float(np.mean(v)), float(np.median(v))
-            label = f"{name}: mean {mean:.2f}, median {median:.2f}"
-            layers.append(hv.Curve((edges[:-1], counts / v.size), "dE", "fraction of pixels", label=label).opts(
-                interpolation="steps-post", color=colour))
-            layers.append(hv.VLine(mean).opts(color=colour, line_width=1))
-            layers.append(hv.VLine(median).opts(color=colour, line_width=1, line_dash="dashed"))
-        return hv.Overlay(layers).opts(
-            frame_width=520, frame_height=220, title=f"Overlaid {metric} dE histograms (mean solid, median dashed)",
-            legend_position="top_right", show_legend=True)
-
     # -- A/B -----------------------------------------------------------------------
     def update_ab(self, results=None):
         if not self._built:
@@ -448,12 +502,17 @@ class CompareView:
         results = results if results is not None else self.designs()
         by = {r.name: r for r in results}
         a, b = by.get(self.a_select.value), by.get(self.b_select.value)
-        self.ab = None
         if a is None or b is None or a is b:
+            self.ab, self._ab_inputs = None, None
             self.ab_text.object = "Pin a design to compare two designs pixel by pixel."
             return
         metric = self.state.metric if (a.error_map(self.state.metric) is not None and
                                        b.error_map(self.state.metric) is not None) else "CIELAB"
+        inputs = (a.name, b.name, metric, a.rendered, b.rendered, a.error_map(metric), b.error_map(metric))
+        if self._ab_inputs is not None and self.ab is not None and inputs[:3] == self._ab_inputs[:3] and all(
+                x is y for x, y in zip(inputs[3:], self._ab_inputs[3:])):
+            return  # the same two images: nothing to recompute (a live move that A and B do not show)
+        self.ab, self._ab_inputs = None, inputs
         try:
             ab = ab_difference(a, b, metric)
         except CamsimError as exc:

@@ -9,7 +9,9 @@ On the default scene (cacaphony290 through the DCS-200 geometry at 3.32 m,
   CIELAB dE: the baseline is 10 separate evaluations (what a user did by hand); the
   sweep re-uses each design's sensor responses, resampling and ideal image
   (one cached pipeline per design), on 1 or 2 threads;
-* writing the HTML report of 2 designs with that sweep.
+* writing the HTML report of 2 designs with that sweep;
+* a noise move of the live design, the explorer's state alone and with the
+  Compare tab holding 2 pinned designs (what the comparison adds to a move).
 
 Ratios are against the baseline measured in the same run. Usage:
 ``python benchmarks/review.py [--repeats N] [--threads N]`` (BLAS threads, default 1).
@@ -85,6 +87,35 @@ def main(repeats=3):
     for label, t in rows:
         print(f"| {label:<50} | {t:8.2f} | {t / baseline:17.2f} |")
     print(f"report size: {size / 1e6:.2f} MB (every image embedded)")
+    live_move(repeats)
+
+
+def live_move(repeats):
+    """A noise move of the live design: the explorer alone, and with the Compare tab holding 2 pinned designs."""
+    from app.compare import CompareView
+    from app.state import ExplorerState
+
+    def moves(state, n=4 * repeats + 1):
+        times = []
+        for k in range(n):
+            t0 = time.perf_counter()
+            state.noise_sigma = float(1 + k % 2)
+            times.append(time.perf_counter() - t0)
+        return statistics.median(times[1:])
+
+    alone = moves(ExplorerState())
+    state = ExplorerState()
+    view = CompareView(state)
+    view.pin("DCS-200")
+    state.camera = "human-cones"
+    view.pin("cones")
+    state.camera = "kodak-dcs200-ir"
+    compared = moves(state)
+    print("live noise move (engine + views), median")
+    print(f"| {'what':<50} | {'ms':>8} | {'ratio':>17} |")
+    print(f"|{'-' * 52}|{'-' * 10}|{'-' * 19}|")
+    print(f"| {'explorer state alone (baseline)':<50} | {1000 * alone:8.0f} | {1.0:17.2f} |")
+    print(f"| {'with the Compare tab, 2 pinned designs':<50} | {1000 * compared:8.0f} | {compared / alone:17.2f} |")
 
 
 if __name__ == "__main__":

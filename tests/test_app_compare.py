@@ -49,7 +49,14 @@ def test_each_pinned_design_is_computed_once(compared, monkeypatch):
 
     calls = []
     real = module.evaluate_design
-    monkeypatch.setattr(module, "evaluate_design", lambda *a, **k: calls.append(a[1]) or real(*a, **k))
+    busy = []  # what the page shows while a design is computed
+
+    def spy(*a, **k):
+        calls.append(a[1])
+        busy.append((view.progress.visible, view.message.object, json.loads(view.status.object or "{}").get("busy")))
+        return real(*a, **k)
+
+    monkeypatch.setattr(module, "evaluate_design", spy)
     state.noise_sigma = 3.0  # the live design changes; the pinned ones are not recomputed
     sent = [p.data for p in view.render_pipes]
     state.noise_sigma = 4.0  # another live move re-sends the live design's images only
@@ -60,6 +67,8 @@ def test_each_pinned_design_is_computed_once(compared, monkeypatch):
     assert [d["name"] for d in json.loads(view.status.object)["designs"]] == ["live", "DCS-200", "human cones"]
     state.scene = "bfgb128"  # a shared setting: every pinned design is recomputed, once
     assert sorted(calls) == ["DCS-200", "human cones"]
+    assert all(visible and "Computing 2 pinned design(s) on bfgb128" in text for visible, text, _ in busy)
+    assert not view.progress.visible and json.loads(view.status.object)["busy"] is False
     assert all(d["shape"] == json.loads(view.status.object)["designs"][0]["shape"]
                for d in json.loads(view.status.object)["designs"])
 
