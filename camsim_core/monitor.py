@@ -10,6 +10,7 @@ References
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -179,30 +180,40 @@ def read_smon(path):
     """Read a SimToolbox ``.Smon`` monitor file."""
     from .io.simtoolbox import group_numbers, read_tagged
 
+    from .io.simtoolbox import wavelength_sampling
+
     path = Path(path)
     t = read_tagged(path)
-    start = group_numbers(t, "WavelengthSampling", "Start")[0]
-    step = group_numbers(t, "WavelengthSampling", "Step")[0]
-    count = group_numbers(t, "WavelengthSampling", "NumberSamples")[0]
-    w = sampling_wavelengths(start, step, count)
+    w = wavelength_sampling(t)
     prim = np.asarray(t.require("EmissionSpectra", "phosphor spectra"), float)
     if prim.shape[0] != w.size:
         raise FileFormatError(path, f"#Sim#EmissionSpectra has {prim.shape[0]} rows for {w.size} wavelengths")
     if prim.shape[1] != 3:
         raise FileFormatError(path, f"#Sim#EmissionSpectra must have 3 columns (phosphors), has {prim.shape[1]}")
+    if np.any(prim < 0) or not np.any(prim > 0, axis=0).all():
+        raise FileFormatError(path, "#Sim#EmissionSpectra must be non-negative, each phosphor emitting somewhere")
     gi = np.asarray(t.require("GammaInput"), float).ravel()
     gt = np.asarray(t.require("GammaTable"), float)
-    if gt.shape != (gi.size, 3):
-        raise FileFormatError(path, f"#Sim#GammaTable must be {gi.size} x 3 to match #Sim#GammaInput, is {gt.shape[0]} x {gt.shape[1]}")
+    if gt.ndim != 2 or gt.shape != (gi.size, 3):
+        raise FileFormatError(path, f"#Sim#GammaTable must be {gi.size} x 3 to match #Sim#GammaInput, is {' x '.join(map(str, gt.shape))}")
+    if gi.size < 2:
+        raise FileFormatError(path, f"#Sim#GammaInput has {gi.size} entries; a gamma table needs at least 2")
+    if np.any(np.diff(gi) <= 0) or gi[0] < 0 or gi[-1] > 1:
+        raise FileFormatError(path, "#Sim#GammaInput must increase strictly within [0, 1]")
+    if np.any(gt < 0) or np.any(gt.max(axis=0) <= 0):
+        raise FileFormatError(path, "#Sim#GammaTable must be non-negative with some output for every phosphor (an all-zero table renders black)")
     amb = t.get_tag("AmbientSpectrum")
     bg = t.get_tag("BgColor")
-    return Monitor(
-        w, prim, gi, gt,
-        None if amb is None else np.asarray(amb, float).ravel(),
-        tuple(np.asarray(bg, float).ravel()) if bg is not None else (0.5, 0.5, 0.5),
-        8,
-        path.stem,
-    )
+    try:
+        return Monitor(
+            w, prim, gi, gt,
+            None if amb is None else np.asarray(amb, float).ravel(),
+            tuple(np.asarray(bg, float).ravel()) if bg is not None else (0.5, 0.5, 0.5),
+            8,
+            path.stem,
+        )
+    except ValueError as exc:
+        raise FileFormatError(path, str(exc)) from None
 
 
 @lru_cache(maxsize=None)
@@ -226,7 +237,7 @@ def load_monitor(name_or_path):
     if key.lower() in MONITOR_NAMES:
         return _shipped(key.lower())
     p = Path(key)
-    if not p.exists():
+    if not os.path.lexists(p):
         raise FileFormatError(p, f"no such file, and not a shipped monitor name ({', '.join(MONITOR_NAMES)})")
     if p.suffix.lower() != ".smon":
         raise FileFormatError(p, "unknown monitor format: expected a SimToolbox .Smon file")

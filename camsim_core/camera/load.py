@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -18,8 +19,8 @@ from ..datasets.sensors import (
     smith_pokorny_cones,
     stockman_sharpe_cones,
 )
-from ..errors import FileFormatError
-from ..io.simtoolbox import group_numbers, read_tagged
+from ..errors import FileFormatError, ParameterError
+from ..io.simtoolbox import checked_number, group_number, group_numbers, read_tagged, wavelength_sampling
 from ..simulation import DEFAULT_ARCHITECTURE, FOUR_SENSOR_GRID, bayer, digitize, mosaic, noise, optical_blur, resample, sensor_responses
 from ..spectra import sampling_wavelengths
 from .camera import Camera
@@ -107,15 +108,15 @@ def read_scam(path):
     """
     path = Path(path)
     t = read_tagged(path)
-    n = int(t.number("NumberSensors", required=True))
+    n = t.number("NumberSensors", required=True, integer=True, positive=True)
     ws = t.get_tag("WavelengthSampling")
     if isinstance(ws, dict):
-        s = [group_numbers(t, "WavelengthSampling", f)[0] for f in ("Start", "Step", "NumberSamples")]
+        wls = wavelength_sampling(t)
     elif ws is not None:
-        s = [float(v) for v in " ".join(ws).split()[:3]]
+        s = _three_numbers(path, ws)
+        wls = sampling_wavelengths(*s)
     else:
         raise FileFormatError(path, "required tag #SimWavelengthSampling is missing")
-    wls = sampling_wavelengths(*s)
     sens = np.asarray(t.require("SpectralSensitivity", "one row of sensitivities per sensor"), float)
     if sens.shape != (n, wls.size):
         raise FileFormatError(path, f"#Sim#SpectralSensitivity is {sens.shape[0]} x {sens.shape[1]}, expected {n} x {wls.size}")
@@ -123,20 +124,28 @@ def read_scam(path):
     if unit not in ("Watts", "Quanta"):
         raise FileFormatError(path, f"#SimUnit must be Watts or Quanta for a camera, found {unit!r}")
     names = ("R", "G", "B") if n == 3 else tuple(f"S{i + 1}" for i in range(n))
-    sensors = Sensors(wls, sens, names, unit, t.text("Name"))
+    try:
+        sensors = Sensors(wls, sens, names, unit, t.text("Name"))
+    except ValueError as exc:
+        raise FileFormatError(path, f"#Sim#SpectralSensitivity: {exc}") from None
     tile = None
     if t.has("SpatialLayout"):
-        dims = group_numbers(t, "SpatialLayout", "Dims").astype(int)
+        dims = group_numbers(t, "SpatialLayout", "Dims")
         mos = group_numbers(t, "SpatialLayout", "Mosaic")
-        if dims.size != 3 or mos.size != int(np.prod(dims)):
+        if dims.size != 3 or np.any(dims < 1) or np.any(dims != np.round(dims)) or np.any(dims > 64):
+            raise FileFormatError(path, f"##SimDims is {dims.tolist()}; expected three whole numbers from 1 to 64")
+        dims = dims.astype(int)
+        if mos.size != int(np.prod(dims)):
             raise FileFormatError(path, f"##SimMosaic has {mos.size} entries for ##SimDims {dims.tolist()}")
+        if np.any(mos != np.round(mos)) or np.any(mos < 1) or np.any(mos > n):
+            raise FileFormatError(path, f"##SimMosaic entries must be whole sensor numbers from 1 to {n}")
         tile = mos.astype(int).reshape(tuple(dims)) - 1
         if tile.shape[2] == 1:
             tile = tile[:, :, 0]
         if tile.shape[:2] == (1, 1):
             tile = None  # one pixel with every sensor: a full-colour camera
-    ax = group_numbers(t, "AngularResolution", "X")[0]
-    ay = group_numbers(t, "AngularResolution", "Y")[0]
+    ax = group_number(t, "AngularResolution", "X", positive=True)
+    ay = group_number(t, "AngularResolution", "Y", positive=True)
     noise_mean = noise_sigma = 0.0
     noise_model = "gaussian"
     if t.has("Noise"):
@@ -148,11 +157,14 @@ def read_scam(path):
         mean = group_numbers(t, "Noise", "Mean", required=False)
         noise_mean = float(mean[0]) if mean is not None else 0.0
         var = group_numbers(t, "Noise", "Variance", required=False)
-        noise_sigma = float(np.sqrt(var[0])) if var is not None else 0.0
+        if var is not None and var.size and var[0] < 0:
+            raise FileFormatError(path, f"#SimNoise ##SimVariance is {var[0]:g}; expected a non-negative variance")
+        noise_sigma = float(np.sqrt(var[0])) if var is not None and var.size else 0.0
     bits = None
     if t.has("Quantize"):
-        b = group_numbers(t, "Quantize", "Bits", required=False)
-        bits = int(b[0]) if b is not None else None
+        bits = group_number(t, "Quantize", "Bits", integer=True, positive=True, required=False)
+        if bits is not None and bits > 32:
+            raise FileFormatError(path, f"#SimQuantize ##SimBits is {bits}; expected 1 to 32")
     ph = t.number("PixelHeight", 9e-6)
     pw = t.number("PixelWidth", 9e-6)
     algs = [a for a in t.get_tag("Alg", []) if a and a.strip()]
@@ -163,8 +175,8 @@ def read_scam(path):
             sensors=sensors,
             name=path.stem,
             mosaic=tile,
-            height=int(t.number("Height", required=True)),
-            width=int(t.number("Width", required=True)),
+            height=t.number("Height", required=True, integer=True, positive=True),
+            width=t.number("Width", required=True, integer=True, positive=True),
             angular_resolution=(ax, ay),
             focal_length=t.number("Lens", 50.0),
             pixel_size=(ph, pw),
@@ -182,6 +194,21 @@ def read_scam(path):
         )
     except ValueError as exc:
         raise FileFormatError(path, str(exc)) from None
+
+
+def _three_numbers(path, lines):
+    """``start step count`` of a one-line ``#SimWavelengthSampling``, checked."""
+    from ..io.simtoolbox import _numbers
+
+    v = _numbers(path, "WavelengthSampling", lines)
+    if v.size < 3:
+        raise FileFormatError(path, "#SimWavelengthSampling should hold start, step and count")
+    start = checked_number(path, "#SimWavelengthSampling start", v[:1], positive=True)
+    step = checked_number(path, "#SimWavelengthSampling step", v[1:2], positive=True)
+    count = checked_number(path, "#SimWavelengthSampling count", v[2:3], integer=True, positive=True)
+    if count > 4096:
+        raise FileFormatError(path, f"#SimWavelengthSampling count is {count}, more than 4096")
+    return start, step, count
 
 
 def _dcs200_geometry(ir=True):
@@ -231,7 +258,13 @@ def camera_preset(name, **changes):
         s = gaussian_sensors([460, 520, 580, 640], 27.0)
         cam = base.replace(name=key, sensors=s, mosaic=FOUR_SENSOR_GRID, noise_sigma=0.0, noise_mean=0.0)
     elif key.startswith("mixture-"):
-        cam = base.replace(name=key, sensors=mixture(float(key.split("-", 1)[1])))
+        try:
+            alpha = float(key.split("-", 1)[1])
+        except ValueError:
+            alpha = float("nan")
+        if not 0.0 <= alpha <= 1.0:
+            raise ParameterError("camera", f"{name!r}: a mixture is 'mixture-ALPHA' with ALPHA from 0 to 1 (e.g. mixture-0.5)")
+        cam = base.replace(name=key, sensors=mixture(alpha))
     else:
         raise FileFormatError(name, f"not a shipped camera name ({', '.join(CAMERA_NAMES)}, mixture-ALPHA) nor a file")
     return cam.replace(**changes) if changes else cam
@@ -245,7 +278,7 @@ def load_camera(name_or_path):
     if key.lower() in CAMERA_NAMES or key.lower().startswith("mixture-"):
         return camera_preset(key)
     p = Path(key)
-    if p.exists():
+    if os.path.lexists(p):
         if p.suffix.lower() != ".scam":
             raise FileFormatError(p, "unknown camera format: expected a SimToolbox .Scam file")
         return read_scam(p)

@@ -94,13 +94,30 @@ class Sensors:
         return Sensors(self.wavelengths, self.values * f[:, None], self.names, self.unit, name or self.name)
 
 
-def _dat_sensors(filename, names, name):
-    from ..io.simtoolbox import read_tagged
+def read_dat_sensors(path, names, name=""):
+    """Sensitivities from an old-style SimToolbox ``.dat`` file (``#SimWavelengthSampling start step count``,
+    ``#SimData`` with one row of ``count`` values per name), checked; errors name the file."""
+    from ..errors import FileFormatError
+    from ..io.simtoolbox import _numbers, checked_number, read_tagged
 
-    t = read_tagged(SIMTOOLBOX / "spectra" / filename)
-    start, step, count = (float(v) for v in t.text("WavelengthSampling").split()[:3])
-    data = np.array(" ".join(t.require("Data")).split(), float).reshape(len(names), int(count))
-    return Sensors(sampling_wavelengths(start, step, count), data, names, "Watts", name)
+    t = read_tagged(path)
+    s = _numbers(t.path, "WavelengthSampling", t.require("WavelengthSampling", "start step count"))
+    if s.size < 3:
+        raise FileFormatError(t.path, "#SimWavelengthSampling should hold start, step and count")
+    start = checked_number(t.path, "#SimWavelengthSampling start", s[:1], positive=True)
+    step = checked_number(t.path, "#SimWavelengthSampling step", s[1:2], positive=True)
+    count = checked_number(t.path, "#SimWavelengthSampling count", s[2:3], integer=True, positive=True)
+    data = _numbers(t.path, "Data", t.require("Data", "the sensitivities"))
+    if data.size != len(names) * count:
+        raise FileFormatError(t.path, f"#SimData has {data.size} values, expected {len(names)} x {count}")
+    try:
+        return Sensors(sampling_wavelengths(start, step, count), data.reshape(len(names), count), names, "Watts", name)
+    except ValueError as exc:
+        raise FileFormatError(t.path, str(exc)) from None
+
+
+def _dat_sensors(filename, names, name):
+    return read_dat_sensors(SIMTOOLBOX / "spectra" / filename, names, name)
 
 
 @lru_cache(maxsize=None)

@@ -171,17 +171,24 @@ def read_simg(path, *, name=None, negative="error", shown=None, max_values=None)
     distance = t.number("InputCameraDistance", required=True, positive=True)
     root = t.text("ImageRoot").strip()
     angular = _camera_angular_resolution(path, t, shown)
-    cube = np.empty((h, w, count))
-    for k, wl in enumerate(wls):
+    planes = []
+    for wl in wls:  # every plane checked (beside the header, regular, the right size) before allocating
         plane_name = f"{root}{int(round(wl))}"
         plane = member_path(path.parent, plane_name, shown=shown, field="#SimImageRoot")
         if not os.path.lexists(plane):
             raise FileFormatError(shown, f"plane file {plane_name!r} for {wl:g} nm is missing (expected beside the header)")
+        size = check_regular(plane, f"{shown}: plane {plane_name}").st_size
+        if size != 2 * h * w:
+            raise FileFormatError(f"{shown}: plane {plane_name}", f"is {size} bytes, expected {2 * h * w} "
+                                                                  f"({h} x {w} 16-bit values): truncated or wrong size")
+        planes.append((plane, plane_name))
+    cube = np.empty((h, w, count))
+    for k, (plane, plane_name) in enumerate(planes):
         raw = read_regular(plane, max_bytes=2 * h * w, shown=f"{shown}: plane {plane_name}")
         if len(raw) != 2 * h * w:
-            raise FileFormatError(f"{shown}: plane {plane_name}", f"is {len(raw)} bytes, expected {2 * h * w} "
-                                                                  f"({h} x {w} 16-bit values): truncated or wrong size")
-        cube[:, :, k] = np.frombuffer(raw, dtype=">u2").reshape(h, w) * factors[k]
+            raise FileFormatError(f"{shown}: plane {plane_name}", f"is {len(raw)} bytes, expected {2 * h * w}")
+        with np.errstate(over="ignore"):  # an overflow becomes inf, refused by check_radiance below
+            cube[:, :, k] = np.frombuffer(raw, dtype=">u2").reshape(h, w) * factors[k]
     illum = None
     act = t.get_tag("ActualIlluminant")
     if isinstance(act, dict):
