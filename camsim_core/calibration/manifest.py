@@ -137,7 +137,9 @@ def read_manifest(raw_dir):
         raise FileFormatError(folder, "raw capture folder not found")
     path = folder / MANIFEST_NAME
     try:
-        spec = json.loads(path.read_text())
+        spec = json.loads(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise FileFormatError(path, f"not UTF-8 text (byte {exc.start}); save the manifest as UTF-8 JSON") from None
     except OSError:
         raise FileFormatError(path, f"no {MANIFEST_NAME} in the raw capture folder (it lists each plane's wavelength, exposure, f-stop and file, and the dark frames)") from None
     except json.JSONDecodeError as exc:

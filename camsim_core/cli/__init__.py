@@ -37,10 +37,42 @@ def main(argv=None):
         parser.print_help()
         return 2
     try:
-        return int(args.func(args) or 0)
+        import numpy as np
+
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow saturates in the digitizer; no warnings
+            return int(args.func(args) or 0)
     except CamsimError as exc:
-        print(f"camsim {args.command}: error: {exc}", file=sys.stderr)
+        print(f"camsim {args.command}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"camsim {args.command}: interrupted", file=sys.stderr)
+        return 130
+    except (OSError, UnicodeError, MemoryError, RecursionError, ValueError, TypeError, ArithmeticError) as exc:
+        # not one of camsim's own errors: still one line, never a traceback
+        print(f"camsim {args.command}: error: {type(exc).__name__}: {_one_line(exc)}", file=sys.stderr)
+        return 2
+
+
+def _one_line(exc):
+    text = " ".join(str(exc).split())
+    return text if len(text) <= 500 else text[:497] + "..."
+
+
+def check_output(path, flag="--out", *, suffixes=None):
+    """Refuse an output path before any work: a folder, a missing parent folder, or an unknown suffix."""
+    from pathlib import Path
+
+    from ..errors import ParameterError
+
+    p = Path(path)
+    if p.is_dir() or str(path).endswith(("/", "\\")):
+        raise ParameterError(flag, f"{path} is a folder; give a file name")
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.is_dir():
+        raise ParameterError(flag, f"folder {folder} does not exist")
+    if suffixes is not None and p.suffix.lower() not in suffixes:
+        raise ParameterError(flag, f"{p.name}: expected one of {', '.join(suffixes)}")
+    return p
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -28,8 +28,19 @@ def register(subparsers):
 
 
 def run(args):
-    from ..calibration import calibrate
+    from pathlib import Path
 
+    from ..calibration import calibrate
+    from ..errors import ParameterError
+    from . import check_output
+
+    check_output(args.out, "--out", suffixes=(".npz",))
+    if args.report:
+        report = Path(args.report)
+        if report.exists() and not report.is_dir():
+            raise ParameterError("--report", f"{report} exists and is not a folder")
+        if not report.exists() and not (report.parent if str(report.parent) else Path(".")).is_dir():
+            raise ParameterError("--report", f"folder {report.parent} does not exist")
     res = calibrate(args.raw_dir, args.out, mcc=args.mcc, reference=args.reference, report=args.report, register=not args.no_registration)
     reg = [r for r in res.registration if np.isfinite(r.residual)]
     h, w, n = res.scene.data.shape

@@ -76,12 +76,20 @@ def run(args):
     from ..image import image_from_scene
     from ..io.output import RAW_SUFFIXES
 
-    out = Path(args.out)
+    from . import check_output
+
+    out = check_output(args.out)
     dng = out.suffix.lower() == ".dng"
     if out.suffix.lower() not in RAW_SUFFIXES and not dng:
         raise ParameterError("--out", f"{out.name}: expected a .tif, .png, .npy or .dng file name")
     if dng and (args.render or args.demosaic or args.no_mosaic or args.unquantized):
         raise ParameterError("--out", f"{out.name}: a DNG holds the raw mosaic; drop --render, --demosaic, --no-mosaic and --unquantized")
+    if args.seed is not None and args.seed < 0:
+        raise ParameterError("--seed", f"must be a whole number >= 0, got {args.seed}")
+    for name in ("distance", "exposure", "f_stop", "noise_sigma"):
+        v = getattr(args, name, None)
+        if v is not None and not (v == v and abs(v) != float("inf")):
+            raise ParameterError(f"--{name.replace('_', '-')}", f"must be a finite number, got {v}")
     if args.render and out.suffix.lower() not in (".png", ".tif", ".tiff"):
         raise ParameterError("--out", f"{out.name}: a rendered image is written as .png or .tif")
     scene = load_scene(args.scene)

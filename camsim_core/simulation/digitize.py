@@ -54,5 +54,7 @@ def digitize(camera, image):
     if black:
         data = data + black
     out = np.rint(data)
+    # finite inputs only turn NaN through overflow (inf * 0, inf - inf): an overexposed pixel saturates
+    out[np.isnan(out)] = full
     np.clip(out, 0.0, full, out=out)
     return image.then("digitize", data=out, bits=camera.bits, quantized=True, black_level=image.black_level + black)
