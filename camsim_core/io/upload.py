@@ -147,8 +147,28 @@ def _load_single(tmp, name, suffix, content, limits):
     return read_photo(path, max_values=limits.max_scene_values)
 
 
+def _declared_members(data):
+    """Member count from the zip's end-of-central-directory record (22 bytes at the end), or None.
+
+    Read by hand so that a zip of millions of members is refused before its
+    directory is parsed; a zip64 count (0xFFFF) is left to :mod:`zipfile`.
+    """
+    import struct
+
+    tail = data[-(22 + 65535):]
+    pos = tail.rfind(b"PK\x05\x06")
+    if pos < 0 or pos + 22 > len(tail):
+        return None
+    total = struct.unpack_from("<H", tail, pos + 10)[0]
+    return None if total == 0xFFFF else total
+
+
 def _check_directory(path_or_file, name, limits):
     """The zip's members (from its central directory), refused when over ``limits``."""
+    data = path_or_file.getvalue() if hasattr(path_or_file, "getvalue") else Path(path_or_file).read_bytes()
+    declared = _declared_members(data)
+    if declared is not None and declared > limits.max_members:
+        raise FileFormatError(name, f"holds {declared} members, more than the {limits.max_members} allowed")
     try:
         with zipfile.ZipFile(path_or_file) as z:
             infos = z.infolist()
