@@ -1,0 +1,23 @@
+"""A closed session gives back its memory: its pipeline cache, last result and uploads are dropped
+and the state's watchers unlinked (``app.main._release``, run from ``on_session_destroyed``)."""
+
+
+from app.main import _release, create_app
+from camsim_core.scene import macbeth_scene, save_npz_scene
+
+
+def test_release_drops_the_sessions_arrays_and_watchers(tmp_path):
+    page = create_app()
+    state = page.state
+    save_npz_scene(macbeth_scene(patch_size=4, border=1), tmp_path / "mine.npz")
+    assert state.add_upload("mine.npz", (tmp_path / "mine.npz").read_bytes()), state.message
+    assert state._uploads and state.pipeline is not None
+    watched = sum(len(w) for group in state.param.watchers.values() for w in group.values())
+    assert watched > 0
+    _release(state, page)
+    assert state.pipeline is None and state.result is None and not state._uploads
+    assert sum(len(w) for group in state.param.watchers.values() for w in group.values()) == 0
+    assert page.state is None and len(page.objects) == 0
+    # a change after release reaches nothing (no watcher left to recompute)
+    state.noise_sigma = 3.0
+    assert state.result is None
