@@ -117,7 +117,9 @@ def read_scam(path):
         wls = sampling_wavelengths(*s)
     else:
         raise FileFormatError(path, "required tag #SimWavelengthSampling is missing")
-    sens = np.asarray(t.require("SpectralSensitivity", "one row of sensitivities per sensor"), float)
+    sens = t.require("SpectralSensitivity", "one row of sensitivities per sensor")
+    if not isinstance(sens, np.ndarray) or sens.ndim != 2:
+        raise FileFormatError(path, "#Sim#SpectralSensitivity must be a matrix ('rows cols' then the values)")
     if sens.shape != (n, wls.size):
         raise FileFormatError(path, f"#Sim#SpectralSensitivity is {sens.shape[0]} x {sens.shape[1]}, expected {n} x {wls.size}")
     unit = t.text("Unit", "Watts").strip().capitalize()
@@ -154,12 +156,10 @@ def read_scam(path):
         if kind.lower() not in _NOISE_TYPES:
             raise FileFormatError(path, f"##SimNoise ##SimType {kind!r} is not a noise type camsim knows (gaussianIID, gaussianIIDpercent)")
         noise_model = _NOISE_TYPES[kind.lower()]
-        mean = group_numbers(t, "Noise", "Mean", required=False)
-        noise_mean = float(mean[0]) if mean is not None else 0.0
-        var = group_numbers(t, "Noise", "Variance", required=False)
-        if var is not None and var.size and var[0] < 0:
-            raise FileFormatError(path, f"#SimNoise ##SimVariance is {var[0]:g}; expected a non-negative variance")
-        noise_sigma = float(np.sqrt(var[0])) if var is not None and var.size else 0.0
+        mean = group_number(t, "Noise", "Mean", required=False)
+        noise_mean = float(mean) if mean is not None else 0.0
+        var = group_number(t, "Noise", "Variance", minimum=0.0, required=False)
+        noise_sigma = float(np.sqrt(var)) if var is not None else 0.0
     bits = None
     if t.has("Quantize"):
         bits = group_number(t, "Quantize", "Bits", integer=True, positive=True, required=False)
