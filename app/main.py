@@ -20,6 +20,8 @@ import weakref
 from functools import partial
 
 import panel as pn
+from bokeh.core.validation import silence
+from bokeh.core.validation.warnings import FIXED_SIZING_MODE
 
 from . import state as state_module
 from .compare import compare_tab
@@ -61,6 +63,9 @@ class _ClosedTabFilter(logging.Filter):
 
 
 logging.getLogger("bokeh.server.views.ws").addFilter(_ClosedTabFilter())
+# HoloViews plots sized by their frame (frame_width / frame_height) are valid but make Bokeh warn
+# W-1005 FIXED_SIZING_MODE once per plot and session: silence that one check, not the log.
+silence(FIXED_SIZING_MODE, True)
 
 
 def configure(scene=None, *, limits=None, upload=True):
