@@ -1,0 +1,71 @@
+"""Inputs through widgets, files and URLs are bounded, each refusal with a message; the server's
+websocket origins are the printed host's, never '*'."""
+
+import json
+import time
+
+import pytest
+
+from app import state as state_module
+from app.main import _long_url_values
+from app.state import ExplorerState, json_depth, parse_numbers, parse_tile
+from camsim_core.cli.serve import allowed_origins, public_host
+from camsim_core.errors import CamsimError, ParameterError
+
+
+def test_many_gaussian_centres_are_refused():
+    with pytest.raises(ParameterError, match="at most 16 sensors"):
+        parse_numbers(", ".join(str(400 + i) for i in range(17)), "gaussian_centers")
+    assert len(parse_numbers(", ".join(str(400 + i) for i in range(16)), "gaussian_centers")) == 16
+    with pytest.raises(CamsimError):
+        parse_numbers("1e999, 500", "gaussian_centers")
+
+
+def test_large_custom_tiles_and_long_text_are_refused():
+    with pytest.raises(ParameterError, match="at most 8 x 8"):
+        parse_tile("; ".join(" ".join("0" for _ in range(9)) for _ in range(9)))
+    with pytest.raises(ParameterError, match="characters"):
+        parse_tile("0 " * 1000)
+    assert parse_tile("1 0; 2 1").shape == (2, 2)
+
+
+def test_json_depth_is_measured_without_recursion():
+    deep = "[" * 100_000 + "]" * 100_000
+    t0 = time.monotonic()
+    assert json_depth(deep) == 100_000
+    assert time.monotonic() - t0 < 2.0
+    assert json_depth('{"a": "[[[[", "b": [1, [2]]}') == 3  # brackets inside strings do not count
+
+
+@pytest.fixture(scope="module")
+def state():
+    return ExplorerState()
+
+
+def test_deep_or_large_parameter_files_get_a_message(state):
+    assert not state.from_json("[" * 10_000 + "]" * 10_000)  # 20 kB, nested 10,000 deep
+    assert "nested deeper than 4 levels" in state.message
+    assert not state.from_json(json.dumps({"seed": 1, "pad": "x" * 100_000}))
+    assert "larger than" in state.message
+    assert not state.from_json(json.dumps({"gaussian_centers": "5" * 5000}))
+    assert "at most 256 characters" in state.message
+
+
+def test_long_url_values_are_named_and_ignored():
+    assert _long_url_values("?seed=" + "9" * 5000 + "&noise_sigma=2") == ["seed"]
+    assert _long_url_values("?seed=3&noise_sigma=2") == []
+
+
+def test_origins_for_a_class_are_the_printed_host_never_a_wildcard():
+    origins = allowed_origins("0.0.0.0", 5006, ["review.example.org"])
+    assert "*" not in " ".join(origins)
+    assert f"{public_host('0.0.0.0')}:5006" in origins and "review.example.org:5006" in origins
+    assert set(allowed_origins("127.0.0.1", 5006)) == {"localhost:5006", "127.0.0.1:5006"}
+    with pytest.raises(ParameterError, match="without wildcards"):
+        allowed_origins("0.0.0.0", 5006, ["*"])
+
+
+def test_server_limits_are_the_documented_defaults():
+    lim = state_module.ServerLimits()
+    assert (lim.max_sensors, lim.max_tile, lim.max_text, lim.max_json_bytes, lim.max_json_depth) == (16, 8, 256, 65536, 4)
+    assert lim.upload.max_upload_bytes == 16 * 2**20 and lim.upload.max_scene_values == 8_000_000
