@@ -20,7 +20,7 @@ from ..datasets.sensors import (
     stockman_sharpe_cones,
 )
 from ..errors import FileFormatError, ParameterError
-from ..io.simtoolbox import checked_number, group_number, group_numbers, read_tagged, wavelength_sampling
+from ..io.simtoolbox import checked_number, checked_wavelengths, group_number, group_numbers, read_tagged, wavelength_sampling
 from ..simulation import DEFAULT_ARCHITECTURE, FOUR_SENSOR_GRID, bayer, digitize, mosaic, noise, optical_blur, resample, sensor_responses
 from ..spectra import sampling_wavelengths
 from .camera import Camera
@@ -208,6 +208,7 @@ def _three_numbers(path, lines):
     count = checked_number(path, "#SimWavelengthSampling count", v[2:3], integer=True, positive=True)
     if count > 4096:
         raise FileFormatError(path, f"#SimWavelengthSampling count is {count}, more than 4096")
+    checked_wavelengths(path, "#SimWavelengthSampling", start, step, count)
     return start, step, count
 
 

@@ -98,7 +98,7 @@ def read_dat_sensors(path, names, name=""):
     """Sensitivities from an old-style SimToolbox ``.dat`` file (``#SimWavelengthSampling start step count``,
     ``#SimData`` with one row of ``count`` values per name), checked; errors name the file."""
     from ..errors import FileFormatError
-    from ..io.simtoolbox import _numbers, checked_number, read_tagged
+    from ..io.simtoolbox import _numbers, checked_number, checked_wavelengths, read_tagged
 
     t = read_tagged(path)
     s = _numbers(t.path, "WavelengthSampling", t.require("WavelengthSampling", "start step count"))
@@ -107,6 +107,9 @@ def read_dat_sensors(path, names, name=""):
     start = checked_number(t.path, "#SimWavelengthSampling start", s[:1], positive=True)
     step = checked_number(t.path, "#SimWavelengthSampling step", s[1:2], positive=True)
     count = checked_number(t.path, "#SimWavelengthSampling count", s[2:3], integer=True, positive=True)
+    if count > 4096:
+        raise FileFormatError(t.path, f"#SimWavelengthSampling count is {count}, more than 4096")
+    checked_wavelengths(t.path, "#SimWavelengthSampling", start, step, count)
     data = _numbers(t.path, "Data", t.require("Data", "the sensitivities"))
     if data.size != len(names) * count:
         raise FileFormatError(t.path, f"#SimData has {data.size} values, expected {len(names)} x {count}")

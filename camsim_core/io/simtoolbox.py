@@ -277,4 +277,16 @@ def wavelength_sampling(tagged, group="WavelengthSampling"):
     count = group_number(tagged, group, "NumberSamples", integer=True, positive=True)
     if count > MAX_SAMPLES:
         raise FileFormatError(tagged.path, f"#Sim{group} ##SimNumberSamples is {count}, more than {MAX_SAMPLES}")
+    return checked_wavelengths(tagged.path, f"#Sim{group}", start, step, count)
+
+
+#: Longest wavelength a file may sample, nm (far infrared; a guard against overflowing samplings).
+MAX_WAVELENGTH = 1e6
+
+
+def checked_wavelengths(path, where, start, step, count):
+    """``start + step * arange(count)`` (nm), refused unless every sample is finite and at most :data:`MAX_WAVELENGTH`."""
+    last = start + step * (count - 1)
+    if not np.isfinite(last) or last > MAX_WAVELENGTH:
+        raise FileFormatError(path, f"{where} samples up to {last:g} nm; expected at most {MAX_WAVELENGTH:g} nm")
     return start + step * np.arange(count)

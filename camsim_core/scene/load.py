@@ -11,7 +11,7 @@ from ..datasets import SIMTOOLBOX
 from ..datasets.illuminants import illuminant as named_illuminant
 from ..errors import FileFormatError, ParameterError
 from ..io.files import check_regular, member_path, read_regular
-from ..io.simtoolbox import group_number, group_numbers, read_tagged, wavelength_sampling
+from ..io.simtoolbox import checked_wavelengths, group_number, group_numbers, read_tagged, wavelength_sampling
 from ..spectra import Spectrum, sampling_wavelengths
 from .scene import Scene, check_radiance
 from .charts import CHART_NAMES, chart
@@ -199,7 +199,7 @@ def read_simg(path, *, name=None, negative="error", shown=None, max_values=None)
                 raise FileFormatError(shown, f"#SimActualIlluminant ##SimS is {s[:3].tolist()}; expected [start step count], all positive")
             if np.any(spd < 0):
                 raise FileFormatError(shown, "#SimActualIlluminant ##SimSpd holds negative values; expected a non-negative spectrum")
-            illum = Spectrum(sampling_wavelengths(*s[:3]), spd, "measured")
+            illum = Spectrum(checked_wavelengths(shown, "#SimActualIlluminant ##SimS", s[0], s[1], int(s[2])), spd, "measured")
     label = name or path.stem
     cube = check_radiance(cube, shown, negative)
     cube.flags.writeable = False  # our own array: the Scene keeps it without a copy
