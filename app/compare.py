@@ -226,7 +226,7 @@ class CompareView:
             return
         self._built = True
         self._build_plots()
-        self.views[:] = [pn.Row(*self.render_panes), pn.Row(*self.de_panes), pn.Row(self.hist_pane, self.table),
+        self.views[:] = [pn.Row(*self.slots), pn.Row(self.hist_pane, self.table),
                          pn.pane.Markdown("### A/B difference"), pn.Row(self.a_select, self.b_select), self.ab_text,
                          pn.Row(*self.ab_panes)]
         self.sweep_area[:] = [self.sweep_pane]
@@ -247,13 +247,17 @@ class CompareView:
 
         self.render_panes = [
             pn.pane.HoloViews(hv.DynamicMap(show_rgb, streams=[p]).opts(hv.opts.RGB(**IMAGE_OPTS)),
-                              css_classes=["camsim-compare-rendered"], linked_axes=True, visible=False)
+                              css_classes=["camsim-compare-rendered"], linked_axes=True)
             for p in self.render_pipes]
         self.de_panes = [
             pn.pane.HoloViews(hv.DynamicMap(show_de, streams=[p]).opts(
                 hv.opts.Image(cmap="inferno", colorbar=True, **IMAGE_OPTS)),
-                css_classes=["camsim-compare-de"], linked_axes=True, visible=False)
+                css_classes=["camsim-compare-de"], linked_axes=True)
             for p in self.de_pipes]
+        # one column per design slot, shown or hidden as a whole (a HoloViews pane's own ``visible``
+        # would be pushed onto its Bokeh figure, which refuses the page template's settings)
+        self.slots = [pn.Column(r, d, visible=False, css_classes=["camsim-compare-slot"])
+                      for r, d in zip(self.render_panes, self.de_panes)]
         self.histogram = HistogramPlot()
         self.hist_pane = pn.pane.Bokeh(self.histogram.figure, css_classes=["camsim-compare-hist"])
         # the sweep plot changes its number of curves as designs are swept: its pane gets a new overlay
@@ -377,7 +381,17 @@ class CompareView:
             self._computing = False
             self.progress.visible = False
             self.message.object = "; ".join(f"**{n}** refused: {m}" for n, m in self.errors.items())
-        self.update()
+        self._safely(self.update)
+
+    def _safely(self, fn):
+        """Run a view update from a callback; a failure shows a message (and goes to the log), never a dead tab."""
+        try:
+            fn()
+        except Exception as exc:
+            import logging
+
+            logging.getLogger("camsim.compare").exception("compare tab update failed")
+            self.message.object = f"**Display failed:** {type(exc).__name__}: {exc}"
 
     def _server_doc(self):
         doc = self._doc
@@ -406,7 +420,7 @@ class CompareView:
 
     def _deferred_update(self):
         self._pending = False
-        self.update()
+        self._safely(self.update)
 
     def live_result(self):
         """The live design as a DesignResult (the explorer's own result; made once per result)."""
@@ -464,7 +478,7 @@ class CompareView:
                 self._shown[i] = (r.name, r.rendered, de, top)
             else:
                 self._shown[i] = None
-            self.render_panes[i].visible = self.de_panes[i].visible = i < len(results)
+            self.slots[i].visible = i < len(results)
         self.histogram.update([(r.name, r.error_map(metric) if r.error_map(metric) is not None else r.delta_e)
                                for r in results], metric)
         names = [r.name for r in results]

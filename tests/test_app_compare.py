@@ -40,7 +40,7 @@ def test_pinned_designs_show_the_engines_numbers(compared, engine):
     for name, r in engine.items():
         assert f'data-value="{r.measures["cielab"]["mean"]!r}"' in view.table.object
     assert "kodak-dcs200-ir" in view.table.object and "human-cones" in view.table.object
-    assert [p.visible for p in view.render_panes] == [True, True, False, False, False]
+    assert [slot.visible for slot in view.slots] == [True, True, False, False, False]
 
 
 def test_each_pinned_design_is_computed_once(compared, monkeypatch):

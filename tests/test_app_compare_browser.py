@@ -178,3 +178,28 @@ def test_sweep_of_noise_gives_one_curve_per_design_with_the_engines_points(compa
         assert list(xs) == list(ex) and ys == pytest.approx(ey, rel=1e-12, abs=1e-12)
     assert "Done: 10 points" in page.text(".camsim-sweep-message")
     assert page.errors() == []
+
+
+_POINT_ON_SCREEN = """([title, x, y]) => {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
+    if (m.constructor && m.constructor.__name__ === 'Figure' && m.title && m.title.text.startsWith(title)) {
+      const view = Bokeh.index.find_one(m);
+      const box = view.el.getBoundingClientRect();
+      return [box.left + view.frame.x_scale.compute(x), box.top + view.frame.y_scale.compute(y)];
+    }
+  }
+  return null;
+}"""
+
+
+def test_a_click_on_a_sweep_point_loads_its_configuration(compared):
+    page = compared
+    s = wait_compare(page, lambda s: s["sweep"] and len(s["sweep"]["points"]) == 2 * len(SIGMAS))
+    point = next(p for p in s["sweep"]["points"] if p["design"] == "DCS-200" and p["value"] == 6.0)
+    mean = point["measures"]["cielab"]["mean"]
+    page.page.locator(".camsim-sweep-plot").first.scroll_into_view_if_needed()
+    xy = page.page.evaluate(_POINT_ON_SCREEN, ["Mean CIELAB dE against", 6.0, mean])
+    assert xy is not None
+    page.page.mouse.click(*xy)
+    after = page.wait_for(lambda s: s["params"]["camera"] == "kodak-dcs200-ir" and s["params"]["noise_sigma"] == 6.0)
+    assert after["mean_de"] == pytest.approx(mean, abs=1e-4)  # the live design is that point's configuration
