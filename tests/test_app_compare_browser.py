@@ -183,7 +183,8 @@ def test_sweep_of_noise_gives_one_curve_per_design_with_the_engines_points(compa
 _POINT_ON_SCREEN = """([title, x, y]) => {
   for (const m of Bokeh.documents[0]._all_models.values()) {
     if (m.constructor && m.constructor.__name__ === 'Figure' && m.title && m.title.text.startsWith(title)) {
-      const view = Bokeh.index.find_one(m);
+      const view = Bokeh.index.find_one(m);  // a replaced plot may linger in the document without a view
+      if (!view) continue;
       const box = view.el.getBoundingClientRect();
       return [box.left + view.frame.x_scale.compute(x), box.top + view.frame.y_scale.compute(y)];
     }
