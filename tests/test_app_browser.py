@@ -4,7 +4,9 @@ against ``camsim serve`` started on 127.0.0.1. Screenshots go to ``test-artifact
 
 import pytest
 
-from app_helpers import (ARTIFACTS, CHROMIUM_ARGS, IMAGE_VIEWS, Page, background_share, chromium_path,
+from playwright.sync_api import TimeoutError as PlaywrightTimeout
+
+from app_helpers import (ARTIFACTS, CHROMIUM_ARGS, FIGURES_JS, IMAGE_VIEWS, Page, background_share, chromium_path,
                          explorer_server, figures, loading_count)
 
 pytestmark = pytest.mark.browser
@@ -171,8 +173,16 @@ def test_image_views_share_zoom_and_pan(page):
 def _assert_views_show_whole_image(page, tag):
     s = page.status()
     h, w = s["shape"]
-    figs = figures(page)
+    # large images (13 MB at 0.5 m) may still be decoding when the small status arrives: wait, bounded
+    try:
+        page.page.wait_for_function(
+            "([js, keys, wh]) => { const f = eval(js)(); return keys.every(k => f['camsim-' + k + '-figure'] &&"
+            " f['camsim-' + k + '-figure'].dw === wh[0] && f['camsim-' + k + '-figure'].dh === wh[1]); }",
+            arg=[FIGURES_JS, list(IMAGE_VIEWS), [w, h]], timeout=30000)
+    except PlaywrightTimeout:
+        pass  # the checks below say which view holds an old image
     page.page.wait_for_timeout(300)  # let the canvases draw the data that arrived
+    figs = figures(page)
     for key in IMAGE_VIEWS:
         f = figs[f"camsim-{key}-figure"]
         assert (f["dw"], f["dh"]) == (w, h), (key, f)  # the data is the current image
