@@ -312,6 +312,26 @@ TABS = [
 ]
 
 
+def _lazy_tabs(state, views):
+    """The tabs, each built the first time it is shown: a page opens with the Results tab only,
+    so its first render does not wait for plots nobody has looked at yet."""
+    holders = [pn.Column(sizing_mode="stretch_width", css_classes=["camsim-tab"]) for _ in TABS]
+    tabs = pn.Tabs(*[(title, holder) for (title, _), holder in zip(TABS, holders)],
+                   css_classes=["camsim-tabs"], dynamic=False, sizing_mode="stretch_width")
+    built = set()
+
+    def show(index):
+        if index in built or not 0 <= index < len(TABS):
+            return
+        built.add(index)
+        holders[index].objects = [TABS[index][1](state, views)]
+
+    tabs.param.watch(lambda event: show(event.new), "active")
+    show(tabs.active)
+    views["tabs"] = tabs
+    return tabs
+
+
 def _new_state(scene):
     chosen = scene or _options["scene"] or DEFAULT_SCENE
     if isinstance(chosen, str):
@@ -327,9 +347,14 @@ def _go_background(state):
     if doc is None or doc.session_context is None:
         return
 
+    def apply(job, outcome):
+        # one batch of model changes: Bokeh re-walks the document's model graph once, not per change
+        with pn.io.hold(doc, freeze=True):
+            state._apply(job, outcome)
+
     def deliver(job, outcome):
         try:
-            doc.add_next_tick_callback(partial(state._apply, job, outcome))
+            doc.add_next_tick_callback(partial(apply, job, outcome))
         except Exception:  # the session has closed: nothing to show
             pass
 
@@ -370,8 +395,7 @@ def create_app(scene=None):
         notice.visible = bool(state.notice)
 
     state.param.watch(on_message, ["message", "notice"])
-    tabs = pn.Tabs(*[(title, build(state, views)) for title, build in TABS],
-                   css_classes=["camsim-tabs"], dynamic=False, sizing_mode="stretch_width")
+    tabs = _lazy_tabs(state, views)
     present = pn.widgets.Toggle(name="Presentation mode", css_classes=["w-present"], button_type="default",
                                 sizing_mode="stretch_width")
     present.jscallback(value=_PRESENT_JS)
@@ -380,8 +404,14 @@ def create_app(scene=None):
         views["grid"].ncols = 2 if event.new else 3
 
     present.param.watch(on_present, "value")
-    diagnostics = pn.Card(results.status, title="Diagnostics (parameters computed, steps run, engine time)",
-                          collapsed=True, sizing_mode="stretch_width", css_classes=["camsim-diagnostics"])
+    # Not a collapsed Card: a Card hides its children by setting their `visible` in the browser, which the
+    # next update from the server undoes, and each round makes the browser lay the whole page out again.
+    show_diagnostics = pn.widgets.Checkbox(name="Show diagnostics (parameters computed, steps run, engine time)",
+                                           value=False, css_classes=["w-diagnostics"])
+    results.status.visible = False
+    show_diagnostics.link(results.status, value="visible")
+    diagnostics = pn.Column(show_diagnostics, results.status, sizing_mode="stretch_width",
+                            css_classes=["camsim-diagnostics"])
     intro = pn.pane.Markdown(START_HERE, css_classes=["camsim-start"], sizing_mode="stretch_width")
     body = pn.Column(alert, notice, intro, tabs, diagnostics, sizing_mode="stretch_width")
     body.state = state

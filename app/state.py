@@ -316,8 +316,7 @@ class ExplorerState(param.Parameterized):
         self.message = ""
         res.params = job["params"]
         self.shown = dict(job["params"])
-        self.result = res
-        self.computing = False
+        self.param.update(result=res, computing=False)  # one batch: views redraw once
 
     def _refuse(self, reason, back_to=None):
         """Say why, and put the parameters back to ``back_to`` (default: those of the result shown)."""

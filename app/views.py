@@ -12,6 +12,7 @@ whole image when its size changes.
 from __future__ import annotations
 
 import hashlib
+import html
 import io
 import json
 
@@ -36,6 +37,19 @@ __all__ = ["sensor_colors", "scene_srgb", "raw_rgb", "planes_rgb", "rgba32", "hi
 #: The fixed dE colour scale (an option, for comparing designs); by default the scale follows the data.
 DE_RANGE = (0.0, 20.0)
 _SCENE_RGB = {}
+
+
+#: A computation still running after this long marks the result panes as busy (ms).
+BUSY_DELAY_MS = 250
+
+
+def _after(ms, fn):
+    """Call ``fn`` after ``ms`` on this session's event loop (at once outside a server)."""
+    doc = pn.state.curdoc
+    if doc is not None and doc.session_context is not None:
+        doc.add_timeout_callback(fn, ms)
+    else:
+        fn()
 
 
 # -- display helpers (pure functions over arrays) ----------------------------
@@ -276,14 +290,16 @@ class ResultsView:
         self.labels["hist"] = _label("dE histogram", "camsim-hist-label")
         self.panes["hist"] = pn.Column(self.labels["hist"], pn.pane.Bokeh(hist, sizing_mode="stretch_width"),
                                        css_classes=["camsim-hist"], sizing_mode="stretch_width")
-        self.stats = pn.pane.Markdown("", css_classes=["camsim-stats"], margin=(0, 10), sizing_mode="stretch_width")
-        self.warnings = pn.pane.Markdown("", css_classes=["camsim-warnings"], margin=(0, 10),
-                                         sizing_mode="stretch_width")
+        # HTML, not Markdown: these change with every result, and need no parsing
+        self.stats = pn.pane.HTML("", css_classes=["camsim-stats"], margin=(0, 10), sizing_mode="stretch_width")
+        self.warnings = pn.pane.HTML("", css_classes=["camsim-warnings"], margin=(0, 10),
+                                     sizing_mode="stretch_width")
         self.status = pn.pane.Str("", css_classes=["camsim-status"], sizing_mode="stretch_width",
                                   styles={"font-size": "10px", "white-space": "pre-wrap", "word-break": "break-all"},
                                   stylesheets=["pre { white-space: pre-wrap; word-break: break-all; }"])
-        state.param.watch(lambda e: self.update(), ["result", "metric", "de_scale"])
-        state.param.watch(lambda e: self.show_computing(), ["computing", "message"])
+        self._busy_shown = False
+        self._memos = {}
+        state.param.watch(self._on_state, ["result", "metric", "de_scale", "computing", "message"])
         self.update()
 
     # -- pieces -------------------------------------------------------------
@@ -365,41 +381,76 @@ class ResultsView:
         self.res_summary = (label, mean, med)
         self.show_computing()
 
+    def _on_state(self, *events):
+        """Redraw once per batch of state changes (a new result comes with ``computing`` False).
+
+        When a computation starts, the busy marks appear only if it is still
+        running after ``BUSY_DELAY_MS``: a quick result replaces the old one
+        directly, in one message to the browser, instead of first marking six
+        panes busy (each mark makes the browser lay the page out again).
+        """
+        names = {e.name for e in events}
+        if names & {"result", "metric", "de_scale"}:
+            self.update()
+        elif self.state.computing and not self._busy_shown and names == {"computing"}:
+            _after(BUSY_DELAY_MS, self._busy_if_still_computing)
+        else:
+            self.show_computing()
+
+    def _busy_if_still_computing(self):
+        if self.state.computing:
+            self.show_computing()
+
+    def _memo(self, name, obj, fn):
+        """``fn(obj)``, computed once per object (a step's output is the same object until it re-runs)."""
+        held = self._memos.get(name)
+        if held is None or held[0] is not obj:
+            held = self._memos[name] = (obj, fn(obj))
+        return held[1]
+
     def show_computing(self):
         """Stats, warnings and the status pane; panes marked as loading while a newer result is computed."""
+        with pn.io.hold(freeze=True):
+            self._show_computing()
+
+    def _show_computing(self):
         res = self.state.result
         busy = bool(self.state.computing)
+        self._busy_shown = busy
         for key in ("raw", "demosaiced", "rendered", "ideal", "de", "hist"):
-            self.panes[key].loading = busy
+            if self.panes[key].loading != busy:  # each change of the mark lays the page out again
+                self.panes[key].loading = busy
         if res is None or res.raw is None:
             return
         label, mean, med = getattr(self, "res_summary", (self.state.metric, None, None))
         steps = [n.removeprefix("stage:") for n, _ in res.ran]
-        head = "**Computing the new result...** (the images below are the previous one) · " if busy else ""
+        head = "<strong>Computing the new result...</strong> (the images below are the previous one) · " if busy else ""
         if mean is None:
-            self.stats.object = head + "dE not available"
+            self.stats.object = f"<p>{head}dE not available</p>"
         else:
-            view = (f" · viewing {self.state.viewing}, {res.samples_per_degree:.4g} samples/deg"
+            view = (f" · viewing {html.escape(str(self.state.viewing))}, {res.samples_per_degree:.4g} samples/deg"
                     if label == "S-CIELAB" and getattr(res, "samples_per_degree", None) else "")
-            self.stats.object = (f"{head}**{label}** mean dE **{mean:.2f}** · median **{med:.2f}**{view} · engine "
-                                 f"{1000 * res.seconds:.0f} ms ({', '.join(steps) or 'nothing re-run'})")
-        clipped, dark = exposure_warnings(res.raw)
+            self.stats.object = (f"<p>{head}<strong>{label}</strong> mean dE <strong>{mean:.2f}</strong> · median "
+                                 f"<strong>{med:.2f}</strong>{view} · engine {1000 * res.seconds:.0f} ms "
+                                 f"({', '.join(steps) or 'nothing re-run'})</p>")
+        clipped, dark = self._memo("exposure", res.raw, exposure_warnings)
         notes = []
         if clipped > 0.01:
             notes.append(f"⚠ {100 * clipped:.1f} % of pixels are clipped (at full scale): lower the exposure")
         if dark > 0.25:
             notes.append(f"⚠ {100 * dark:.0f} % of pixels are in the lowest 2 % of the digital range: "
                          "under-exposed (try Auto exposure)")
-        self.warnings.object = (" · ".join(notes) or
-                                f"Clipped {100 * clipped:.1f} % · in the lowest 2 % of levels {100 * dark:.1f} %")
+        self.warnings.object = "<p>" + (" · ".join(notes) or
+                                        f"Clipped {100 * clipped:.1f} % · in the lowest 2 % of levels "
+                                        f"{100 * dark:.1f} %") + "</p>"
         self.status.object = json.dumps({
             "params": getattr(res, "params", self.state.to_dict()),
             "computing": busy,
             "mean_de": None if mean is None else round(mean, 4),
             "median_de": None if med is None else round(med, 4),
             "metric": label,
-            "raw_hash": digest(res.raw.data),
-            "rendered_hash": digest(res.rendered),
+            "raw_hash": self._memo("raw_hash", res.raw, digest),
+            "rendered_hash": self._memo("rendered_hash", res.rendered, digest),
             "tile": None if res.raw.tile is None else np.asarray(res.raw.tile).tolist(),
             "shape": list(res.raw.data.shape[:2]),
             "skipped": sorted(getattr(res, "skipped", {})),
