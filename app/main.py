@@ -349,7 +349,7 @@ def _go_background(state):
 
     def apply(job, outcome):
         # one batch of model changes: Bokeh re-walks the document's model graph once, not per change
-        with pn.io.hold(doc, freeze=True):
+        with pn.io.hold(doc):
             state._apply(job, outcome)
 
     def deliver(job, outcome):
@@ -409,7 +409,7 @@ def create_app(scene=None):
     show_diagnostics = pn.widgets.Checkbox(name="Show diagnostics (parameters computed, steps run, engine time)",
                                            value=False, css_classes=["w-diagnostics"])
     results.status.visible = False
-    show_diagnostics.link(results.status, value="visible")
+    show_diagnostics.param.watch(lambda event: setattr(results.status, "visible", event.new), "value")
     diagnostics = pn.Column(show_diagnostics, results.status, sizing_mode="stretch_width",
                             css_classes=["camsim-diagnostics"])
     intro = pn.pane.Markdown(START_HERE, css_classes=["camsim-start"], sizing_mode="stretch_width")
@@ -420,6 +420,7 @@ def create_app(scene=None):
         sidebar=[present, *_controls(state, results)],
         main=[body],
         sidebar_width=330,
+        busy_indicator=None,  # the result panes show their own state; a header spinner would cost two messages per change
     )
     template.state = state  # for tests and notebooks
     if pn.state.curdoc is not None and pn.state.curdoc.session_context is not None:

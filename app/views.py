@@ -20,7 +20,7 @@ import colour
 import numpy as np
 import panel as pn
 from bokeh.events import SelectionGeometry, Tap
-from bokeh.models import (BoxSelectTool, ColorBar, ColumnDataSource, CustomJSHover, DataRange1d, HoverTool,
+from bokeh.models import (BoxSelectTool, ColorBar, ColumnDataSource, CustomJSHover, DataRange1d, Div, HoverTool,
                           LinearColorMapper, Range1d, Span, TapTool)
 from bokeh.palettes import Category10, Greys256, Inferno256
 from bokeh.plotting import figure
@@ -216,8 +216,50 @@ def _colorbar(mapper, title, name):
     return fig
 
 
+def _same_column(old, new):
+    """True when two one-image columns hold the same array (then it is not sent again)."""
+    a, b = old[0], new[0]
+    return a is b or (isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape
+                      and a.dtype == b.dtype and np.array_equal(a, b))
+
+
+class Text:
+    """A piece of HTML that changes with results: a Bokeh ``Div`` whose ``text`` is set in place.
+
+    Cheaper than a Panel HTML pane for text that changes on every result: the
+    pane re-sends its stylesheets with each change, which makes Bokeh re-walk
+    the whole document's model graph (tens of ms per change) and the browser
+    restyle the page. Use it where a pane would go (``__panel__``).
+    """
+
+    def __init__(self, text, css, margin=(2, 5), styles=None, stylesheets=()):
+        self.div = Div(text=text, css_classes=list(css), margin=margin, sizing_mode="stretch_width",
+                       styles=dict(styles or {}), stylesheets=list(stylesheets))
+        self.pane = pn.pane.Bokeh(self.div, sizing_mode="stretch_width", margin=0)
+
+    @property
+    def object(self):
+        return self.div.text
+
+    @object.setter
+    def object(self, text):
+        if text != self.div.text:  # an unchanged text sends nothing
+            self.div.text = text
+
+    @property
+    def visible(self):
+        return self.div.visible
+
+    @visible.setter
+    def visible(self, value):
+        self.div.visible = bool(value)
+
+    def __panel__(self):
+        return self.pane
+
+
 def _label(text, css):
-    return pn.pane.HTML(text, css_classes=["camsim-label", css], margin=(2, 5), sizing_mode="stretch_width")
+    return Text(text, ["camsim-label", css])
 
 
 _RGB_HOVER = CustomJSHover(code="""
@@ -279,7 +321,7 @@ class ResultsView:
         # the histogram keeps its own axes, refitted to each result
         self.hist_source = ColumnDataSource(dict(left=[0.0], right=[1.0], top=[0]))
         hist = figure(height=240, sizing_mode="stretch_width", tools="", toolbar_location=None,
-                      x_range=DataRange1d(start=0), y_range=DataRange1d(start=0), name="camsim-hist-figure",
+                      x_range=Range1d(0, 1), y_range=Range1d(0, 1), name="camsim-hist-figure",
                       x_axis_label="dE (values above the last bin counted in it)", y_axis_label="pixels")
         hist.quad(left="left", right="right", top="top", bottom=0, source=self.hist_source, color="#4c78a8")
         self.mean_span = Span(location=0, dimension="height", line_color="red", line_width=2)
@@ -291,12 +333,10 @@ class ResultsView:
         self.panes["hist"] = pn.Column(self.labels["hist"], pn.pane.Bokeh(hist, sizing_mode="stretch_width"),
                                        css_classes=["camsim-hist"], sizing_mode="stretch_width")
         # HTML, not Markdown: these change with every result, and need no parsing
-        self.stats = pn.pane.HTML("", css_classes=["camsim-stats"], margin=(0, 10), sizing_mode="stretch_width")
-        self.warnings = pn.pane.HTML("", css_classes=["camsim-warnings"], margin=(0, 10),
-                                     sizing_mode="stretch_width")
-        self.status = pn.pane.Str("", css_classes=["camsim-status"], sizing_mode="stretch_width",
-                                  styles={"font-size": "10px", "white-space": "pre-wrap", "word-break": "break-all"},
-                                  stylesheets=["pre { white-space: pre-wrap; word-break: break-all; }"])
+        self.stats = Text("", ["camsim-stats"], margin=(0, 10))
+        self.warnings = Text("", ["camsim-warnings"], margin=(0, 10))
+        self.status = Text("", ["camsim-status"], styles={"font-size": "10px"},
+                           stylesheets=["pre { white-space: pre-wrap; word-break: break-all; margin: 0; }"])
         self._busy_shown = False
         self._memos = {}
         state.param.watch(self._on_state, ["result", "metric", "de_scale", "computing", "message"])
@@ -310,8 +350,16 @@ class ResultsView:
         self.y_range.update(start=0, end=h)
 
     def _send(self, key, image, **extra):
+        """Replace an image view's data; only the columns that changed go to the browser."""
         h, w = image.shape[:2]
-        self.sources[key].data = dict(image=[image], x=[0], y=[0], dw=[w], dh=[h], **extra)
+        src = self.sources[key]
+        new = dict(image=[image], **extra)
+        if src.data["dw"] != [w] or src.data["dh"] != [h] or set(src.data) != set(new) | {"x", "y", "dw", "dh"}:
+            src.data = dict(new, x=[0], y=[0], dw=[w], dh=[h])
+            return
+        changed = {k: v for k, v in new.items() if not _same_column(src.data[k], v)}
+        if changed:
+            src.data.update(changed)
 
     def _resize(self, shape):
         if tuple(shape) == self.shape:
@@ -368,6 +416,9 @@ class ResultsView:
                 self._send("de", np.ascontiguousarray(de[::-1].astype(np.float32)))
                 edges, counts, top = histogram(de)
                 self.hist_source.data = dict(left=edges[:-1], right=edges[1:], top=counts)
+                # ranges set here, not left to the browser (which would send them back to the server)
+                self.hist_figure.x_range.update(start=0, end=float(edges[-1]))
+                self.hist_figure.y_range.update(start=0, end=1.05 * max(float(np.max(counts)), 1.0))
             mean, med = float(np.nanmean(de)), float(np.nanmedian(de))
             self.mean_span.location, self.median_span.location = mean, med
             scale = "colours 0 to the 99.5th percentile" if self.state.de_scale == "data" else "fixed colours 0-20"
@@ -410,7 +461,7 @@ class ResultsView:
 
     def show_computing(self):
         """Stats, warnings and the status pane; panes marked as loading while a newer result is computed."""
-        with pn.io.hold(freeze=True):
+        with pn.io.hold():
             self._show_computing()
 
     def _show_computing(self):
@@ -443,7 +494,7 @@ class ResultsView:
         self.warnings.object = "<p>" + (" · ".join(notes) or
                                         f"Clipped {100 * clipped:.1f} % · in the lowest 2 % of levels "
                                         f"{100 * dark:.1f} %") + "</p>"
-        self.status.object = json.dumps({
+        self.status.object = "<pre>" + html.escape(json.dumps({
             "params": getattr(res, "params", self.state.to_dict()),
             "computing": busy,
             "mean_de": None if mean is None else round(mean, 4),
@@ -459,7 +510,7 @@ class ResultsView:
             "engine_ms": round(res.seconds * 1000, 2),
             "clipped": round(clipped, 4), "dark": round(dark, 4),
             "message": self.state.message,
-        }, separators=(",", ":"))
+        }, separators=(",", ":"))) + "</pre>"
 
     def error_map(self, res):
         if self.state.metric == "S-CIELAB" and res.scielab is not None:
