@@ -76,14 +76,35 @@ def configure(scene=None, *, limits=None, upload=True):
         state_module.LIMITS = limits
 
 
-def _release(state, page):
+def _forget_js_links(roots):
+    """Drop the browser-side links of a closed session's widgets from Panel's registry.
+
+    ``panel.links.Callback.registry`` is a weak-keyed dict whose values (the
+    links) hold their source widget strongly, so an entry never goes away by
+    itself: it kept every closed session's widgets, state and arrays alive.
+    """
+    from panel.links import Callback
+
+    mine = set()
+    for root in roots:
+        for obj in root.select() if hasattr(root, "select") else []:
+            mine.add(id(obj))
+    for key in list(Callback.registry.keys()):
+        if id(key) in mine:
+            Callback.registry.pop(key, None)
+
+
+def _release(state, page, template=None):
     """Break a closed session's links so that its state, pipeline and views are freed.
 
     Widgets made with ``from_param`` and the views watch the state, and the
     state's watchers point back at them; dropping the watchers, the cached
-    pipeline, the uploads, the last result and the page's children leaves
-    nothing that reaches the session's arrays.
+    pipeline, the uploads, the last result, the widgets' browser-side links
+    and the page's children leaves nothing that reaches the session's arrays.
     """
+    if template is not None:
+        _forget_js_links([page, *list(template.sidebar), *list(template.header)])
+        template.state = None
     for group in list(state.param.watchers.values()) if hasattr(state.param, "watchers") else []:
         for watchers in list(group.values()):
             for w in list(watchers):
@@ -424,7 +445,8 @@ def create_app(scene=None):
     )
     template.state = state  # for tests and notebooks
     if pn.state.curdoc is not None and pn.state.curdoc.session_context is not None:
-        pn.state.on_session_destroyed(lambda ctx, state=state, page=body: _release(state, page))
+        pn.state.on_session_destroyed(lambda ctx, state=state, page=body, template=template:
+                                      _release(state, page, template))
     return template
 
 

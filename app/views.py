@@ -262,9 +262,15 @@ def _label(text, css):
     return Text(text, ["camsim-label", css])
 
 
-_RGB_HOVER = CustomJSHover(code="""
+_RGB_HOVER_JS = """
     const v = value >>> 0;
-    return `${v & 255}, ${(v >>> 8) & 255}, ${(v >>> 16) & 255}`;""")
+    return `${v & 255}, ${(v >>> 8) & 255}, ${(v >>> 16) & 255}`;"""
+
+
+def _rgb_hover():
+    """Hover formatter: packed RGBA -> "R, G, B". A new model per figure: a Bokeh model belongs to one
+    document, and a module-level one would keep the first session's document (and its arrays) alive."""
+    return CustomJSHover(code=_RGB_HOVER_JS)
 
 
 # -- the results: raw, demosaiced, rendered, ideal, dE ---------------------
@@ -310,7 +316,7 @@ class ResultsView:
                     tips = [("digital value", "@value{0.[00]}"), ("sensor", "@sensor{custom}")]
                 else:
                     tips = [("monitor R, G, B", "@image{custom}")]
-            fmt = {"@sensor": self.sensor_hover} if key == "raw" else ({"@image": _RGB_HOVER} if key != "de" else {})
+            fmt = {"@sensor": self.sensor_hover} if key == "raw" else ({"@image": _rgb_hover()} if key != "de" else {})
             fig.add_tools(HoverTool(renderers=[r], tooltips=[("x, y", "$x{0}, $y{0}")] + tips, formatters=fmt))
             self.sources[key], self.figures[key] = src, fig
             self.labels[key] = _label(self.TITLES.get(key, "dE map"), f"camsim-{key}-label")
@@ -421,8 +427,9 @@ class ResultsView:
                 self.hist_figure.y_range.update(start=0, end=1.05 * max(float(np.max(counts)), 1.0))
             mean, med = float(np.nanmean(de)), float(np.nanmedian(de))
             self.mean_span.location, self.median_span.location = mean, med
-            scale = "colours 0 to the 99.5th percentile" if self.state.de_scale == "data" else "fixed colours 0-20"
-            self.labels["de"].object = f"{label} dE map ({scale}; 0 = identical to the ideal image)"
+            scale = "colours 0 to 99.5th pct" if self.state.de_scale == "data" else "fixed colours 0-20"
+            self.labels["de"].object = (f"<span title='0 = identical to the ideal image; the colour scale is set "
+                                        f"under Processing'>{label} dE map ({scale})</span>")
             self.labels["hist"].object = (f"{label} dE histogram: <span style='color:red'>mean {mean:.2f}</span>, "
                                           f"<span style='color:#d08000'>median {med:.2f}</span>")
         else:
@@ -579,7 +586,7 @@ class SceneView:
             if key == "rgb":
                 r = fig.image_rgba(image="image", x="x", y="y", dw="dw", dh="dh", source=self.rgb_source)
                 fig.add_tools(HoverTool(renderers=[r], tooltips=[("x, y", "$x{0}, $y{0}"), ("sRGB", "@image{custom}")],
-                                        formatters={"@image": _RGB_HOVER}))
+                                        formatters={"@image": _rgb_hover()}))
             else:
                 r = fig.image(image="image", x="x", y="y", dw="dw", dh="dh", source=self.plane_source,
                               color_mapper=self.plane_mapper)

@@ -294,11 +294,7 @@ def test_a_refused_combination_puts_the_widgets_back(page):
 
 
 # -- layout -------------------------------------------------------------------------
-@pytest.mark.parametrize("width, height", [
-    pytest.param(1366, 768, marks=pytest.mark.xfail(
-        reason="known layout bug: at 1366 px the results grid is 1040 px wide inside 1006 px of tabs, "
-               "so the right column is cut by about 14 px", strict=False)),
-    (1920, 1080)])
+@pytest.mark.parametrize("width, height", [(1366, 768), (1920, 1080)])
 def test_no_horizontal_scroll_and_images_use_the_width(page, width, height):
     page.page.set_viewport_size({"width": width, "height": height})
     page.page.wait_for_timeout(800)
@@ -307,6 +303,9 @@ def test_no_horizontal_scroll_and_images_use_the_width(page, width, height):
     boxes = [page.page.locator(f".camsim-{k}-plot").first.bounding_box() for k in IMAGE_VIEWS]
     assert sum(b["width"] for b in boxes[:3]) > 0.55 * width  # three views per row fill the main area
     assert all(b["x"] + b["width"] <= width for b in boxes)
+    hist = page.page.locator(".camsim-hist").first.bounding_box()  # the right column, below the dE map
+    tabs = page.page.locator(".camsim-tabs").first.bounding_box()
+    assert hist["x"] + hist["width"] <= tabs["x"] + tabs["width"] + 1
 
 
 def test_presentation_mode_has_large_type_and_images(page):

@@ -21,3 +21,23 @@ def test_release_drops_the_sessions_arrays_and_watchers(tmp_path):
     # a change after release reaches nothing (no watcher left to recompute)
     state.noise_sigma = 3.0
     assert state.result is None
+
+
+def test_a_released_session_is_freed_with_its_widgets():
+    """Nothing outside the session keeps its state: Panel's registry of browser-side links
+    (weak keys, but values that hold the keys) is purged of the session's widgets."""
+    import gc
+    import weakref
+
+    from panel.links import Callback
+
+    template = create_app()
+    state, body = template.state, template.main[0]
+    mine = {id(o) for root in [body, *template.sidebar] for o in root.select()}
+    assert any(id(k) in mine for k in Callback.registry.keys())  # the sliders' links are registered
+    ref = weakref.ref(state)
+    _release(state, body, template)
+    assert not any(id(k) in mine for k in Callback.registry.keys())
+    del state, body, template
+    gc.collect()
+    assert ref() is None
