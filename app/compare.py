@@ -49,8 +49,10 @@ __all__ = ["CompareView", "DesignStore", "compare_tab"]
 
 LIVE = "live"
 SLOTS = MAX_PINNED + 1
+# framewise: each new image sets the (shared) ranges to its own extent; without it the ranges stay at those of
+# the first, 2 x 2 placeholder, and every image opens zoomed into its corner
 IMAGE_OPTS = dict(frame_width=250, data_aspect=1, xaxis=None, yaxis=None, toolbar="above",
-                  tools=["hover"], active_tools=["wheel_zoom"])
+                  tools=["hover"], active_tools=["wheel_zoom"], framewise=True)
 _WIN_COLOURS = np.array([[31, 119, 180], [255, 127, 14], [200, 200, 200]]) / 255.0
 
 

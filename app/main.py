@@ -36,6 +36,8 @@ DEFAULT_SCENE = "cacaphony290"
 _options = {"scene": None, "upload": True}
 #: Every session's state while it lives (weak: a closed session's state must be freed).
 LIVE_STATES = weakref.WeakSet()
+#: Called after a closed session is released (``camsim serve`` gives freed memory back to the system here).
+AFTER_RELEASE = []
 
 START_HERE = """**Start here.** A camera design (sidebar) looks at a hyperspectral scene. The
 *Results* tab shows what the camera records (raw mosaic), its processing (demosaiced,
@@ -118,6 +120,8 @@ def _release(state, page, template=None):
         state.result = None
     page.objects = []
     page.state = None
+    for hook in AFTER_RELEASE:
+        hook()
 
 
 def param_discard(obj):

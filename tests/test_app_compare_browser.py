@@ -4,6 +4,7 @@ sweep noise sigma. Numbers are checked against the engine's results for each con
 import json
 import time
 
+import numpy as np
 import pytest
 
 from app_helpers import ARTIFACTS, CHROMIUM_ARGS, TIMEOUT, Page, chromium_path, explorer_server
@@ -95,7 +96,8 @@ _FIGURES = """() => {
       const scatters = m.renderers.filter(r => r.glyph && r.glyph.constructor.__name__ === 'Scatter').map(
         r => ({x: Array.from(r.data_source.data[r.glyph.x.field]), y: Array.from(r.data_source.data[r.glyph.y.field])}));
       const mappers = m.renderers.filter(r => r.glyph && r.glyph.color_mapper).map(r => [r.glyph.color_mapper.low, r.glyph.color_mapper.high]);
-      out[m.title.text] = {x: m.x_range.id, y: m.y_range.id, legend: labels, scatters: scatters, mappers: mappers};
+      out[m.title.text] = {x: m.x_range.id, y: m.y_range.id, legend: labels, scatters: scatters, mappers: mappers,
+                           xr: [m.x_range.start, m.x_range.end], yr: [m.y_range.start, m.y_range.end]};
     }
   }
   return out;
@@ -114,6 +116,10 @@ def test_two_pinned_designs_side_by_side(compared, engine):
     # shared zoom and pan: one x range and one y range for every image view
     ranges = {(figures[k]["x"], figures[k]["y"]) for k in rendered + maps}
     assert len(ranges) == 1
+    # ... showing the whole image (not the corner of a placeholder's extent)
+    h, w = next(iter(engine.values())).shape
+    xr, yr = figures[rendered[0]]["xr"], figures[rendered[0]]["yr"]
+    assert xr[0] <= 0.05 * w and xr[1] >= 0.95 * w and yr[0] <= 0.05 * h and yr[1] >= 0.95 * h, (xr, yr, w, h)
     # one colour scale for every dE map
     assert len({tuple(m) for k in maps for m in figures[k]["mappers"]}) == 1
     # two histogram curves, each labelled with its mean and median
