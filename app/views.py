@@ -20,7 +20,7 @@ import colour
 import numpy as np
 import panel as pn
 from bokeh.events import SelectionGeometry, Tap
-from bokeh.models import (BoxSelectTool, ColorBar, ColumnDataSource, CustomJSHover, DataRange1d, Div, HoverTool,
+from bokeh.models import (BoxSelectTool, ColumnDataSource, CustomJSHover, DataRange1d, Div, HoverTool,
                           LinearColorMapper, Range1d, Span, TapTool)
 from bokeh.palettes import Category10, Greys256, Inferno256
 from bokeh.plotting import figure
@@ -203,16 +203,33 @@ def _unavailable(shape):
 
 
 def _colorbar(mapper, title, name):
-    """A horizontal colour bar in a strip of its own (inside the image figure it would change the
-    image's aspect ratio)."""
-    fig = figure(height=58, sizing_mode="stretch_width", toolbar_location=None, tools="", min_border=0,
+    """A horizontal colour bar in a strip of its own, following ``mapper``'s low and high.
+
+    Drawn as an image of the mapper's own colours over an axis from low to
+    high (Bokeh's ColorBar annotation drew as a solid black bar in a strip this
+    thin); inside the image figure it would change the image's aspect ratio.
+    """
+    fig = figure(height=48, sizing_mode="stretch_width", toolbar_location=None, tools="", min_border=0,
                  min_border_left=10, min_border_right=20, outline_line_color=None, name=name,
-                 x_range=Range1d(0, 1), y_range=Range1d(0, 1))
-    fig.axis.visible = False
+                 x_range=Range1d(0, 1), y_range=Range1d(0, 1), x_axis_label=title)
+    fig.yaxis.visible = False
     fig.grid.visible = False
-    fig.scatter([], [])  # a renderer, so the strip is a valid plot
-    fig.add_layout(ColorBar(color_mapper=mapper, title=title, orientation="horizontal", height=12,
-                            location=(0, 0), padding=4), "center")
+    fig.xaxis.axis_label_standoff = 2
+    src = ColumnDataSource(dict(image=[np.zeros((1, 256))], x=[0.0], y=[0.0], dw=[1.0], dh=[1.0]))
+    fig.image(image="image", x="x", y="y", dw="dw", dh="dh", source=src, color_mapper=mapper)
+
+    def draw():
+        lo, hi = float(mapper.low), float(mapper.high)
+        hi = hi if hi > lo else lo + 1.0
+        src.data = dict(image=[np.linspace(lo, hi, 256)[None, :]], x=[lo], y=[0.0], dw=[hi - lo], dh=[1.0])
+        fig.x_range.update(start=lo, end=hi)
+
+    def follow(attr, old, new):
+        draw()
+
+    mapper.on_change("low", follow)
+    mapper.on_change("high", follow)
+    draw()
     return fig
 
 

@@ -136,20 +136,19 @@ def allowed_origins(address, port, extra=()):
 
 
 def _return_freed_memory_to_the_system():
-    """Make freed arrays go back to the operating system (glibc only; elsewhere nothing to do).
+    """Let a closed session's memory go back to the operating system (glibc only; elsewhere a no-op).
 
-    glibc raises its mmap threshold after the first large free, so later
-    arrays come from per-thread heaps that are rarely given back: a server
-    whose sessions each computed in their own thread kept hundreds of MB
-    after they closed. A fixed threshold keeps every array of 256 KiB or
-    more in its own mapping, unmapped when freed.
+    Each session computes in threads of its own, and glibc gives threads heaps
+    (arenas) of their own whose freed pages it seldom returns: a server kept
+    hundreds of MB after its sessions closed. Two arenas at most, and a trim
+    of every heap after a session is released (``app.main.AFTER_RELEASE``).
+    A fixed mmap threshold would return memory too, but doubled the engine's
+    time per change (every large temporary array mapped and unmapped).
     """
     try:
         import ctypes
 
         libc = ctypes.CDLL("libc.so.6")
-        libc.mallopt(-3, 256 * 1024)  # M_MMAP_THRESHOLD (fixed: no dynamic raise)
-        libc.mallopt(-1, 1024 * 1024)  # M_TRIM_THRESHOLD
         libc.mallopt(-8, 2)  # M_ARENA_MAX
         return libc
     except (OSError, AttributeError):
