@@ -315,13 +315,13 @@ def _results_tab(state, views):
 
 
 def _scene_tab(state, views):
-    sv = views["scene"]
+    sv = views["scene"] = SceneView(state)
     return pn.Column(pn.Row(sv.wavelength, sv.clear), pn.Row(sv.rgb_pane, sv.plane_pane, sizing_mode="stretch_width"),
                      pn.Row(sv.spectrum_pane, sv.meta, sizing_mode="stretch_width"), sizing_mode="stretch_width")
 
 
 def _camera_tab(state, views):
-    cv = views["camera"]
+    cv = views["camera"] = CameraView(state)
     return pn.Column(cv.info, pn.Row(cv.curves, cv.tile), sizing_mode="stretch_width")
 
 
@@ -406,8 +406,6 @@ def create_app(scene=None):
             pn.state.location.sync(state, {p: p for p in URL_PARAMETERS + COMPARE_PARAMETERS}, on_error=on_error)
     views = {"state": state}
     views["results"] = results = ResultsView(state)
-    views["scene"] = SceneView(state)
-    views["camera"] = CameraView(state)
     alert = pn.pane.Alert(state.message, alert_type="danger", visible=bool(state.message),
                           css_classes=["camsim-alert"], sizing_mode="stretch_width")
     notice = pn.pane.Alert(state.notice, alert_type="warning", visible=bool(state.notice),

@@ -191,6 +191,7 @@ class ExplorerState(param.Parameterized):
         """``start=False``: compute nothing yet (the page first sets a runner, then calls ``recompute``)."""
         super().__init__(**params)
         self.pipeline = Pipeline()
+        self._first_run = True
         self.runner = runner
         self._uploads = {}
         self._updating = False
@@ -287,9 +288,23 @@ class ExplorerState(param.Parameterized):
                 "camera": self.camera_object(), "processing": self.processing()}
 
     def _compute(self, job):
-        """Run the cached pipeline (the only slow part; safe in a worker thread: one pipeline per session)."""
+        """Run the cached pipeline (the only slow part; safe in a worker thread: one pipeline per session).
+
+        A session's first run starts from what an earlier session computed on
+        the same shipped scene (``_WARM``, shared read-only): a new page's
+        first result is then at hand instead of re-running every step.
+        """
         try:
-            return self.pipeline.run(job["scene"], job["camera"], job["processing"]), None
+            shipped = ":" not in self.scene  # never share an upload's arrays between sessions
+            if shipped and self._first_run and self.scene in _WARM:
+                self.pipeline.start_from(_WARM[self.scene])
+            self._first_run = False
+            res = self.pipeline.run(job["scene"], job["camera"], job["processing"])
+            if shipped and res.raw is not None and not res.errors and self.scene not in _WARM:
+                while len(_WARM) >= _WARM_SCENES:
+                    _WARM.pop(next(iter(_WARM)), None)
+                _WARM[self.scene] = self.pipeline.snapshot()
+            return res, None
         except CamsimError as exc:
             return None, str(exc)
         except Exception as exc:  # never a dead page
@@ -454,6 +469,11 @@ class ExplorerState(param.Parameterized):
             self._updating = False
         self.recompute()
         return True
+
+
+#: Per shipped scene, the pipeline memory of the first session that computed on it (at most ``_WARM_SCENES``).
+_WARM = {}
+_WARM_SCENES = 2
 
 
 class Runner:

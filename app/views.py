@@ -518,7 +518,7 @@ class ResultsView:
         self.warnings.object = "<p>" + (" · ".join(notes) or
                                         f"Clipped {100 * clipped:.1f} % · in the lowest 2 % of levels "
                                         f"{100 * dark:.1f} %") + "</p>"
-        self.status.object = "<pre>" + html.escape(json.dumps({
+        self.status_data = {
             "params": getattr(res, "params", self.state.to_dict()),
             "computing": busy,
             "mean_de": None if mean is None else round(mean, 4),
@@ -534,7 +534,8 @@ class ResultsView:
             "engine_ms": round(res.seconds * 1000, 2),
             "clipped": round(clipped, 4), "dark": round(dark, 4),
             "message": self.state.message,
-        }, separators=(",", ":"))) + "</pre>"
+        }
+        self.status.object = "<pre>" + html.escape(json.dumps(self.status_data, separators=(",", ":"))) + "</pre>"
 
     def error_map(self, res):
         if self.state.metric == "S-CIELAB" and res.scielab is not None:

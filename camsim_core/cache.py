@@ -162,6 +162,20 @@ class Pipeline:
         self._memo = {}
         self._ideal_lab = {}
 
+    def snapshot(self):
+        """What this pipeline remembers, to start another from (:meth:`start_from`).
+
+        The arrays are shared, not copied: a pipeline never modifies a step's
+        output, it replaces its own entry when the step re-runs.
+        """
+        return dict(self._memo), dict(self._ideal_lab)
+
+    def start_from(self, snapshot):
+        """Remember what another pipeline computed (a :meth:`snapshot`); steps whose inputs differ re-run as usual."""
+        memo, ideal_lab = snapshot
+        self._memo.update(memo)
+        self._ideal_lab.update(ideal_lab)
+
     def clear(self):
         """Forget every cached step."""
         self._memo.clear()

@@ -1,6 +1,7 @@
 """The explorer's session state and downloads, without a browser (app.state, app.views)."""
 
 import io
+import html
 import json
 import zipfile
 
@@ -149,7 +150,8 @@ def test_downloads_hold_the_displayed_data(state):
 
 def test_status_reports_the_mean_and_median(state):
     view = ResultsView(state)
-    s = json.loads(view.status.object)
+    s = view.status_data
+    assert json.loads(html.unescape(view.status.object.removeprefix("<pre>").removesuffix("</pre>"))) == s
     assert s["mean_de"] == pytest.approx(float(np.mean(state.result.delta_e)), abs=1e-4)
     assert s["median_de"] == pytest.approx(float(np.median(state.result.delta_e)), abs=1e-4)
     assert f"{s['mean_de']:.2f}" in view.stats.object

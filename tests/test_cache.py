@@ -149,3 +149,22 @@ def test_the_ideal_camera_itself_scores_zero(scene):
     assert r.errors == {} and "demosaic" in r.skipped
     assert np.array_equal(_array(r.rendered), _array(r.ideal))
     assert float(np.max(r.delta_e)) == 0.0
+
+
+def test_a_pipeline_started_from_anothers_snapshot_reruns_only_what_differs(scene, camera):
+    first = Pipeline()
+    a = first.run(scene, camera, CIELAB)
+    second = Pipeline()
+    second.start_from(first.snapshot())
+    same = second.run(scene, camera, CIELAB)
+    assert same.ran_steps == []  # everything was at hand
+    for name in OUTPUTS:
+        ref, got = _array(getattr(a, name)), _array(getattr(same, name))
+        assert (ref is None and got is None) or np.array_equal(ref, got)
+    noisy = second.run(scene, camera.replace(noise_sigma=2.0), CIELAB)
+    assert noisy.ran_steps == ["stage:noise", "stage:digitize", "demosaic", "render", "xyz", "delta_e"]
+    # the first pipeline is unaffected by what the second computed
+    again = first.run(scene, camera, CIELAB)
+    assert again.ran_steps == [] and np.array_equal(_array(again.rendered), _array(a.rendered))
+    fresh = Pipeline().run(scene, camera.replace(noise_sigma=2.0), CIELAB)
+    assert np.array_equal(_array(noisy.rendered), _array(fresh.rendered))
