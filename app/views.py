@@ -207,7 +207,7 @@ def _colorbar(mapper, title, name):
     high (Bokeh's ColorBar annotation drew as a solid black bar in a strip this
     thin); inside the image figure it would change the image's aspect ratio.
     """
-    fig = figure(height=48, sizing_mode="stretch_width", toolbar_location=None, tools="", min_border=0,
+    fig = figure(height=64, sizing_mode="stretch_width", toolbar_location=None, tools="", min_border=0,
                  min_border_left=10, min_border_right=20, outline_line_color=None, name=name,
                  x_range=Range1d(0, 1), y_range=Range1d(0, 1), x_axis_label=title)
     fig.yaxis.visible = False
