@@ -1,4 +1,4 @@
-"""camsim explorer: a Panel web app over the camsim engine (issue 5).
+"""camsim explorer: a Panel web app over the camsim engine.
 
 ``create_app()`` builds one session's page; ``camsim serve`` serves it.
 """

@@ -1,4 +1,4 @@
-"""The Experiments tab: a small version of the sensors sweep (chapter Figure 1.14, issue 6).
+"""The Experiments tab: a small version of the sensors sweep (chapter Figure 1.14).
 
 The sweep itself is the engine's (:func:`camsim_core.experiments.sensors.run`);
 this view only asks for a small grid, runs it off the server's event loop

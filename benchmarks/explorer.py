@@ -1,4 +1,4 @@
-"""Benchmark: the engine side of an explorer slider move (issue 5).
+"""Benchmark: the engine side of an explorer slider move.
 
 For each parameter a user can move, the cached pipeline
 (:class:`camsim_core.cache.Pipeline`) is warmed on the default scene

@@ -1,4 +1,4 @@
-"""Benchmark S-CIELAB (issue 4): a 512 x 512 pair at 102.6 samples per degree.
+"""Benchmark S-CIELAB: a 512 x 512 pair at 102.6 samples per degree.
 
 The explorer recomputes S-CIELAB on every slider move, so the aim is under
 0.1 s. camsim filters each opponent channel by one FFT product with its summed

@@ -1,4 +1,4 @@
-"""Benchmark of image processing (issue 3): every demosaicing method, and rendering, on a 1024 x 1024 Bayer raw.
+"""Benchmark of image processing: every demosaicing method, and rendering, on a 1024 x 1024 Bayer raw.
 
 Prints a table of the best-of-N wall time and the ratio to bilinear
 demosaicing measured in the same run. The raw is scikit-image's astronaut

@@ -1,6 +1,6 @@
 """An incremental pipeline: re-run only the steps downstream of a change.
 
-The explorer (issue 5) re-computes the camera image after every slider move.
+The explorer re-computes the camera image after every slider move.
 :class:`Pipeline` remembers, for each step, a key made of its parameters and
 of the token of the step that fed it, and re-runs a step only when that key
 changed. Simulation stages declare the camera fields they read (``stage.uses``,

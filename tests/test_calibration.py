@@ -1,4 +1,4 @@
-"""Raw hyperspectral capture -> calibrated scene (issue 7, chapter section 2).
+"""Raw hyperspectral capture -> calibrated scene (chapter section 2).
 
 Round trips: raw captures are made from a known scene with known per-plane
 motions (translation, rotation, scale), gains, dark frames (level + fixed

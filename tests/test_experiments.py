@@ -1,4 +1,4 @@
-"""Tests of the section 5 experiments (issue 6): grid validation, seeding, Dask runner, outputs, and the
+"""Tests of the section 5 experiments: grid validation, seeding, Dask runner, outputs, and the
 chapter's alpha = 0 claim on a small scene (macbeth at 3.32 m: 45 x 67 pixels)."""
 
 from __future__ import annotations

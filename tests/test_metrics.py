@@ -1,4 +1,4 @@
-"""CIELAB differences and the registered block comparison (issue 4)."""
+"""CIELAB differences and the registered block comparison."""
 
 import colour
 import numpy as np

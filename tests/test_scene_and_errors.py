@@ -1,4 +1,4 @@
-"""Scenes (.npz round trip, generators) and every bad-input path of issue 2: clear errors, no output file."""
+"""Scenes (.npz round trip, generators) and every bad-input path: clear errors, no output file."""
 
 import json
 import numpy as np

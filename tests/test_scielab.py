@@ -1,4 +1,4 @@
-"""S-CIELAB (issue 4): zero for identical images, plain dE for a uniform shift,
+"""S-CIELAB: zero for identical images, plain dE for a uniform shift,
 production filtering against an independent direct 2-D convolution, bad input."""
 
 import math
