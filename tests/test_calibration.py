@@ -24,7 +24,7 @@ from camsim_core.calibration.registration import Similarity, displacement_error,
 from camsim_core.calibration.scatter import fit_scatter
 from camsim_core.calibration.synthetic import _write, random_transforms, raw_captures
 from camsim_core.cli import main
-from camsim_core.errors import CamsimError
+from camsim_core.errors import CamsimError, ParameterError
 from camsim_core.scene import Scene, macbeth_scene
 
 MARGIN = 6  # px of border not compared: registration cannot fill what the moved planes did not see
@@ -364,3 +364,14 @@ def test_calibrate_api_error_leaves_no_file(capture):
     with pytest.raises(CamsimError, match="'reference'"):
         calibrate(capture, out)
     assert not out.exists()
+
+
+def test_a_dark_frame_brighter_than_its_plane_is_refused_naming_the_plane():
+    rng = np.random.default_rng(3)
+    dark = 100.0 + rng.normal(0, 2, (8, 8))
+    unlit = 100.0 + rng.normal(0, 2, (2, 8, 8))  # no light: below the dark frame at about half the pixels
+    out = subtract_darks(unlit, [1.0, 1.0], {1.0: dark}, wavelengths=[400.0, 410.0])
+    assert 0.2 < np.mean(out < 0) < 0.8
+    swapped = np.stack([dark - 60.0, dark + 40.0])  # the first plane is far below its dark frame
+    with pytest.raises(ParameterError, match=r"400 nm plane.*brighter than the plane at 100 %.*swapped"):
+        subtract_darks(swapped, [1.0, 1.0], {1.0: dark}, wavelengths=[400.0, 410.0])

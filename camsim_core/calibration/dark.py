@@ -11,7 +11,11 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["dark_for", "subtract_darks"]
+__all__ = ["dark_for", "subtract_darks", "DARKER_PLANE_SHARE"]
+
+#: A plane darker than its own dark frame at more than this share of its pixels is refused: with no
+#: light a plane is below its dark frame at about half of them (noise); at nearly all, the files are mixed up.
+DARKER_PLANE_SHARE = 0.9
 
 
 def dark_for(exposure, darks, what="plane"):
@@ -33,4 +37,9 @@ def subtract_darks(planes, exposures, darks, wavelengths=None):
         if dark.shape != planes.shape[1:]:
             raise ParameterError(what, f"dark frame is {dark.shape}, plane is {planes.shape[1:]}")
         out[k] = planes[k] - dark
+        if out[k].size >= 16 and np.mean(out[k] < 0) > DARKER_PLANE_SHARE:
+            raise ParameterError(
+                what, f"its dark frame ({t:g} s) is brighter than the plane at {100 * np.mean(out[k] < 0):.0f} % of "
+                      f"the pixels (median {np.median(dark):.4g} against {np.median(planes[k]):.4g}): are the plane "
+                      "and dark files swapped in the manifest?")
     return out
