@@ -295,15 +295,16 @@ class ExplorerState(param.Parameterized):
         first result is then at hand instead of re-running every step.
         """
         try:
-            shipped = ":" not in self.scene  # never share an upload's arrays between sessions
-            if shipped and self._first_run and self.scene in _WARM:
-                self.pipeline.start_from(_WARM[self.scene])
+            name = job["params"]["scene"]  # the job's scene: the widget may have moved on meanwhile
+            shipped = ":" not in name  # never share an upload's arrays between sessions
+            if shipped and self._first_run and name in _WARM:
+                self.pipeline.start_from(_WARM[name])
             self._first_run = False
             res = self.pipeline.run(job["scene"], job["camera"], job["processing"])
-            if shipped and res.raw is not None and not res.errors and self.scene not in _WARM:
+            if shipped and res.raw is not None and not res.errors and name not in _WARM:
                 while len(_WARM) >= _WARM_SCENES:
                     _WARM.pop(next(iter(_WARM)), None)
-                _WARM[self.scene] = self.pipeline.snapshot()
+                _WARM[name] = self.pipeline.snapshot()
             return res, None
         except CamsimError as exc:
             return None, str(exc)

@@ -332,3 +332,21 @@ def test_histogram_refits_to_the_data():
     assert small[1].sum() == 100 and big[1].sum() == 1001  # every finite value counted, the outlier in the last bin
     assert de_range(np.linspace(0, 40, 1001), "data") == pytest.approx((0.0, 39.8))
     assert de_range(np.linspace(0, 40, 1001), "fixed 0-20") == (0.0, 20.0)
+
+
+def test_a_new_session_starts_from_an_earlier_sessions_result_but_never_from_an_upload(tmp_path, monkeypatch):
+    from app import state as state_module
+    from camsim_core.scene import macbeth_scene, save_npz_scene
+
+    monkeypatch.setattr(state_module, "_WARM", {})
+    first = ExplorerState()
+    assert "stage:sensor_responses" in first.result.ran_steps
+    second = ExplorerState()
+    assert second.result.ran_steps == []  # the first session's steps were at hand
+    np.testing.assert_array_equal(second.result.rendered.data, first.result.rendered.data)
+    second.noise_sigma = 2.0  # and its own changes re-run as usual, leaving the first session's result alone
+    assert second.result.ran_steps[0] == "stage:noise"
+    assert first.result.params["noise_sigma"] == 0.0
+    save_npz_scene(macbeth_scene(patch_size=4, border=1), tmp_path / "mine.npz")
+    assert second.add_upload("mine.npz", (tmp_path / "mine.npz").read_bytes()), second.message
+    assert not any(":" in name for name in state_module._WARM)
