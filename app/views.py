@@ -200,35 +200,38 @@ def _unavailable(shape):
     return rgba32(np.full(tuple(shape) + (3,), 0.55))
 
 
-def _colorbar(mapper, title, name):
-    """A horizontal colour bar in a strip of its own, following ``mapper``'s low and high.
+class ColourBar:
+    """A colour mapper and its horizontal colour bar, in a strip of its own; ``set(low, high)`` changes both.
 
     Drawn as an image of the mapper's own colours over an axis from low to
     high (Bokeh's ColorBar annotation drew as a solid black bar in a strip this
-    thin); inside the image figure it would change the image's aspect ratio.
+    thin; inside the image figure it would change the image's aspect ratio).
+    The strip is redrawn by ``set``, not by a callback on the mapper: Python
+    callbacks on a model do not run inside ``pn.io.hold``, which every result
+    update uses.
     """
-    fig = figure(height=64, sizing_mode="stretch_width", toolbar_location=None, tools="", min_border=0,
-                 min_border_left=10, min_border_right=20, outline_line_color=None, name=name,
-                 x_range=Range1d(0, 1), y_range=Range1d(0, 1), x_axis_label=title)
-    fig.yaxis.visible = False
-    fig.grid.visible = False
-    fig.xaxis.axis_label_standoff = 2
-    src = ColumnDataSource(dict(image=[np.zeros((1, 256))], x=[0.0], y=[0.0], dw=[1.0], dh=[1.0]))
-    fig.image(image="image", x="x", y="y", dw="dw", dh="dh", source=src, color_mapper=mapper)
 
-    def draw():
-        lo, hi = float(mapper.low), float(mapper.high)
+    def __init__(self, mapper, title, name):
+        self.mapper = mapper
+        fig = figure(height=64, sizing_mode="stretch_width", toolbar_location=None, tools="", min_border=0,
+                     min_border_left=10, min_border_right=20, outline_line_color=None, name=name,
+                     x_range=Range1d(0, 1), y_range=Range1d(0, 1), x_axis_label=title)
+        fig.yaxis.visible = False
+        fig.grid.visible = False
+        fig.xaxis.axis_label_standoff = 2
+        self.source = ColumnDataSource(dict(image=[np.zeros((1, 256))], x=[0.0], y=[0.0], dw=[1.0], dh=[1.0]))
+        fig.image(image="image", x="x", y="y", dw="dw", dh="dh", source=self.source, color_mapper=mapper)
+        self.figure = fig
+        self.set(mapper.low, mapper.high)
+
+    def set(self, low, high):
+        lo, hi = float(low), float(high)
         hi = hi if hi > lo else lo + 1.0
-        src.data = dict(image=[np.linspace(lo, hi, 256)[None, :]], x=[lo], y=[0.0], dw=[hi - lo], dh=[1.0])
-        fig.x_range.update(start=lo, end=hi)
-
-    def follow(attr, old, new):
-        draw()
-
-    mapper.on_change("low", follow)
-    mapper.on_change("high", follow)
-    draw()
-    return fig
+        if (self.mapper.low, self.mapper.high) != (lo, hi):
+            self.mapper.update(low=lo, high=hi)
+        if (self.figure.x_range.start, self.figure.x_range.end) != (lo, hi):
+            self.source.data = dict(image=[np.linspace(lo, hi, 256)[None, :]], x=[lo], y=[0.0], dw=[hi - lo], dh=[1.0])
+            self.figure.x_range.update(start=lo, end=hi)
 
 
 def _same_column(old, new):
@@ -337,7 +340,8 @@ class ResultsView:
             self.labels[key] = _label(self.TITLES.get(key, "dE map"), f"camsim-{key}-label")
             parts = [self.labels[key], pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
             if key == "de":
-                parts.append(pn.pane.Bokeh(_colorbar(self.mapper, "dE", "camsim-de-colorbar"), sizing_mode="stretch_width"))
+                self.colour_bar = ColourBar(self.mapper, "dE", "camsim-de-colorbar")
+                parts.append(pn.pane.Bokeh(self.colour_bar.figure, sizing_mode="stretch_width"))
             self.panes[key] = pn.Column(*parts, css_classes=[f"camsim-{key}", "camsim-view"], sizing_mode="stretch_width")
         # the histogram keeps its own axes, refitted to each result
         self.hist_source = ColumnDataSource(dict(left=[0.0], right=[1.0], top=[0]))
@@ -432,7 +436,7 @@ class ResultsView:
         if de is not None:
             de = np.asarray(de, float)
             lo, hi = de_range(de, self.state.de_scale)
-            self.mapper.update(low=lo, high=hi)
+            self.colour_bar.set(lo, hi)
             if self._changed("de", de):
                 self._send("de", np.ascontiguousarray(de[::-1].astype(np.float32)))
                 edges, counts, top = histogram(de)
@@ -633,9 +637,9 @@ class SceneView:
         self.plane_label = _label("Radiance at 550 nm", "camsim-scene-plane-label")
         self.rgb_pane = pn.Column(self.rgb_label, pn.pane.Bokeh(self.figures["rgb"], sizing_mode="stretch_width"),
                                   css_classes=["camsim-scene-rgb", "camsim-view"], sizing_mode="stretch_width")
+        self.plane_bar = ColourBar(self.plane_mapper, f"radiance ({self.UNIT})", "camsim-plane-colorbar")
         self.plane_pane = pn.Column(self.plane_label, pn.pane.Bokeh(self.figures["plane"], sizing_mode="stretch_width"),
-                                    pn.pane.Bokeh(_colorbar(self.plane_mapper, f"radiance ({self.UNIT})",
-                                                            "camsim-plane-colorbar"), sizing_mode="stretch_width"),
+                                    pn.pane.Bokeh(self.plane_bar.figure, sizing_mode="stretch_width"),
                                     css_classes=["camsim-scene-plane", "camsim-view"], sizing_mode="stretch_width")
         self.spectrum_pane = pn.Column(
             _label("Spectra of clicked pixels and regions (dotted: the wavelength shown)", "camsim-spectra-label"),
@@ -682,7 +686,7 @@ class SceneView:
             self.reset_spectra()
         plane = np.asarray(scene.data[:, :, k], np.float32)
         top = float(np.percentile(plane, 99.5)) or float(plane.max()) or 1.0
-        self.plane_mapper.update(low=0.0, high=top)
+        self.plane_bar.set(0.0, top)
         self.plane_source.data = dict(image=[np.ascontiguousarray(plane[::-1])], x=[0], y=[0], dw=[w], dh=[h])
         self.plane_label.object = (f"Radiance at {wls[k]:g} nm ({self.UNIT}; grey scale from 0 to this plane's "
                                    f"99.5th percentile, {top:.3g})")

@@ -215,6 +215,15 @@ def test_histogram_and_de_scale_follow_the_data(page):
     page.page.wait_for_timeout(1500)
     assert 20 in list(page.page.evaluate(js).values())
     assert s["mean_de"] > 0
+    # back to the data's scale, after a change that widens it: the colour bar under the map follows
+    page.page.locator(".w-de-scale button", has_text="data").first.click()
+    page.type_number("w-noise", 8)
+    page.wait_for(lambda st: st["params"]["noise_sigma"] == 8 and not st["computing"])
+    page.page.wait_for_timeout(500)
+    bar = page.page.evaluate("""() => { for (const m of Bokeh.documents[0]._all_models.values()) {
+        if (m.name === 'camsim-de-colorbar') return [m.x_range.end, m.renderers[0].glyph.color_mapper.high]; } }""")
+    assert bar[1] > 25  # noise widened the dE scale
+    assert bar[0] == pytest.approx(bar[1])  # the bar's axis ends where the map's colours end
 
 
 # -- the page never lies --------------------------------------------------------
