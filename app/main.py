@@ -28,7 +28,7 @@ from .compare import compare_tab
 from .quality import QualityView
 from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, ExplorerState, Runner
 from .upload import BoundedUpload
-from .views import CameraView, ResultsView, SceneView
+from .views import CameraView, ResultsView, SceneView, when_page_ready
 
 __all__ = ["create_app", "DEFAULT_SCENE", "configure", "LIVE_STATES", "TABS"]
 
@@ -76,6 +76,24 @@ def configure(scene=None, *, limits=None, upload=True):
     _options["upload"] = bool(upload)
     if limits is not None:
         state_module.LIMITS = limits
+
+
+def warm_up():
+    """Compute the first page's result once, before the server takes requests.
+
+    The first visitor then gets a page whose result is at hand (sessions start
+    from this one's pipeline memory, see ``ExplorerState._compute``), and the
+    engine's compiled kernels and lazy imports are ready: on a cold start
+    compiling them took seconds while the server answered nothing else.
+    Returns the seconds it took.
+    """
+    import time
+
+    t0 = time.perf_counter()
+    state = _new_state(None)
+    state.recompute()  # no runner: computes here
+    state.result = None
+    return time.perf_counter() - t0
 
 
 def _forget_js_links(roots):
@@ -379,7 +397,7 @@ def _go_background(state):
 
     def deliver(job, outcome):
         try:
-            doc.add_next_tick_callback(partial(apply, job, outcome))
+            doc.add_next_tick_callback(partial(when_page_ready, partial(apply, job, outcome)))
         except Exception:  # the session has closed: nothing to show
             pass
 

@@ -15,6 +15,7 @@ import hashlib
 import html
 import io
 import json
+from functools import partial
 
 import colour
 import numpy as np
@@ -47,9 +48,30 @@ def _after(ms, fn):
     """Call ``fn`` after ``ms`` on this session's event loop (at once outside a server)."""
     doc = pn.state.curdoc
     if doc is not None and doc.session_context is not None:
-        doc.add_timeout_callback(fn, ms)
+        doc.add_timeout_callback(partial(when_page_ready, fn), ms)
     else:
         fn()
+
+
+def when_page_ready(fn):
+    """Call ``fn`` now if this session's page has reported that it is rendered, else as soon as it does.
+
+    Panel drops the changes made inside ``pn.io.hold`` between the browser's
+    first pull of the page and its "document ready" report (it counts on the
+    pull to carry them, but the pull has already gone), so a result shown in
+    that window would never reach the screen. Before the browser has
+    connected, also at once: its pull will carry the changes. Outside a
+    server: at once.
+    """
+    doc = pn.state.curdoc
+    if doc is None or doc.session_context is None or pn.state.loaded:
+        fn()
+        return
+    session = getattr(doc.session_context, "session", None)
+    if session is None or session.connection_count == 0:
+        fn()
+    else:
+        pn.state.onload(fn)
 
 
 # -- display helpers (pure functions over arrays) ----------------------------

@@ -32,14 +32,16 @@ def free_port():
 
 
 @contextmanager
-def explorer_server(scene=None, extra_args=(), on_start=None):
+def explorer_server(scene=None, extra_args=(), on_start=None, launcher=None):
     """``camsim serve`` on 127.0.0.1 and a free port, in a subprocess; yields the base URL.
 
     ``extra_args`` are more ``camsim serve`` flags; ``on_start(proc)`` is
-    called with the server process once it answers (e.g. to watch its memory).
+    called with the server process once it answers (e.g. to watch its memory);
+    ``launcher`` is a script run instead of ``-m camsim_core.cli`` (same arguments).
     """
     port = free_port()
-    cmd = [sys.executable, "-m", "camsim_core.cli", "serve", "--port", str(port), "--address", "127.0.0.1"]
+    entry = [str(launcher)] if launcher else ["-m", "camsim_core.cli"]
+    cmd = [sys.executable, *entry, "serve", "--port", str(port), "--address", "127.0.0.1"]
     if scene:
         cmd += ["--scene", scene]
     cmd += list(extra_args)

@@ -40,6 +40,26 @@ def page(browser, server):
     pg.close()
 
 
+def test_a_first_result_landing_while_the_page_renders_is_shown(browser):
+    """The first result arrives just after the browser pulled the page, before it reports ready
+    (a slow first computation, e.g. a cold start): it must still reach the screen."""
+    launcher = ARTIFACTS.parent / "tests" / "serve_result_after_pull.py"
+    with explorer_server(launcher=launcher) as url:
+        pg = Page(browser, url)  # waits for the status pane to hold a dE
+        try:
+            s = pg.status()
+            assert s["mean_de"] > 0
+            assert f"{s['mean_de']:.2f}" in pg.text(".camsim-stats")
+            assert loading_count(pg) == 0
+            pg.page.wait_for_timeout(300)  # let the canvases draw the data that arrived
+            for key in ("raw", "rendered"):
+                png = pg.page.locator(f".camsim-{key}-plot").first.screenshot(
+                    path=str(ARTIFACTS / f"first-result-while-rendering-{key}.png"))
+                assert background_share(png) < 0.5, f"the {key} view is blank"
+        finally:
+            pg.close()
+
+
 def test_page_loads_without_console_errors(page):
     s = page.status()
     page.shot("explorer-loaded")

@@ -350,3 +350,16 @@ def test_a_new_session_starts_from_an_earlier_sessions_result_but_never_from_an_
     save_npz_scene(macbeth_scene(patch_size=4, border=1), tmp_path / "mine.npz")
     assert second.add_upload("mine.npz", (tmp_path / "mine.npz").read_bytes()), second.message
     assert not any(":" in name for name in state_module._WARM)
+
+
+def test_the_servers_warm_up_leaves_the_first_page_nothing_to_compute(monkeypatch):
+    from app import main
+    from app import state as state_module
+
+    monkeypatch.setattr(state_module, "_WARM", {})
+    monkeypatch.setitem(main._options, "scene", None)
+    assert main.warm_up() > 0
+    assert list(state_module._WARM) == [main.DEFAULT_SCENE]
+    page = ExplorerState(scene=main.DEFAULT_SCENE)
+    assert page.result.ran_steps == []
+    assert page.result.rendered is not None and np.nanmean(page.result.delta_e) > 0

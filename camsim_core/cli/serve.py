@@ -179,6 +179,7 @@ def run(args):
     main.configure(scene, limits=limits, upload=not args.no_upload)
     origins = allowed_origins(args.address, args.port, args.allow_origin)
     idle_ms = int(args.session_idle * 1000)
+    main.warm_up()
     print(f"camsim explorer on http://{public_host(args.address)}:{args.port}/ (Ctrl-C to stop)", flush=True)
     pn.serve(main.create_app, port=args.port, address=args.address, show=args.show,
              websocket_origin=origins, title="camsim explorer", verbose=False,
