@@ -224,3 +224,24 @@ def test_slanted_edge_mtf_of_the_blur_is_the_diffraction_mtf(k, wavelength):
     v = f / (pitch * 1e3) * wavelength * 1e-6 * n_f
     keep = v <= 0.8
     np.testing.assert_allclose(m[keep] / np.sinc(f[keep]), airy_mtf(v[keep]), atol=0.02)
+
+
+@pytest.mark.parametrize("shape, pads", [((7, 9, 2), ((3, 4), (0, 5))), ((20, 30, 3), ((6, 0), (2, 9))),
+                                         ((5, 4, 1), ((7, 2), (1, 6)))])  # the last: pads wider than the image
+def test_mirror_padding_is_numpys_symmetric_pad(shape, pads, rng):
+    from camsim_core.optics.stage import _mirror_padded
+
+    data = rng.uniform(0, 1, shape)
+    expected = np.pad(np.moveaxis(data, 2, 0), ((0, 0), *pads), mode="symmetric")
+    np.testing.assert_array_equal(_mirror_padded(data, np.float64, *pads), expected)
+
+
+def test_a_float32_image_is_blurred_in_float32_like_its_float64_twin(rng):
+    data = rng.uniform(0, 1, (40, 56, 3))
+    scene64 = scene_sampled_at(2e-6, data, WLS)
+    scene32 = scene_sampled_at(2e-6, data.astype(np.float32), WLS)
+    out64 = optics(lens_camera(8.0), image_from_scene(scene64)).data
+    out32 = optics(lens_camera(8.0), image_from_scene(scene32)).data
+    assert out32.dtype == np.float32 and out64.dtype == np.float64
+    np.testing.assert_allclose(out32, out64, atol=1e-5)
+    assert not np.allclose(out64, data, atol=1e-3)  # and the blur did something

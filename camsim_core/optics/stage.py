@@ -56,21 +56,24 @@ def optics_active(camera):
             or camera.vignetting > 0)
 
 
-def plane_otfs(shape, pitch, wavelengths, f_number, defocus=None):
+def plane_otfs(shape, pitch, wavelengths, f_number, defocus=None, dtype=np.float64):
     """(N, H, W//2 + 1) OTFs on the real-FFT grid of an (H, W) plane sampled every ``pitch`` (dy, dx) m.
 
-    ``defocus``: W020 in waves per wavelength (array), or None. Cached (a
-    pure function of its arguments; read-only result): moving another
-    parameter of the camera does not recompute them.
+    ``defocus``: W020 in waves per wavelength (array), or None. ``dtype``:
+    of the result (float32 for a float32 image). Cached (a pure function of
+    its arguments; read-only result): moving another parameter of the camera
+    does not recompute them.
     """
     key = (tuple(int(v) for v in shape), tuple(float(v) for v in pitch), tuple(np.asarray(wavelengths, float).tolist()),
-           float(f_number), None if defocus is None else tuple(np.asarray(defocus, float).tolist()))
+           float(f_number), None if defocus is None else tuple(np.asarray(defocus, float).tolist()),
+           np.dtype(dtype).name)
     return _plane_otfs(*key)
 
 
 @lru_cache(maxsize=8)
-def _plane_otfs(shape, pitch, wavelengths, f_number, defocus):
+def _plane_otfs(shape, pitch, wavelengths, f_number, defocus, dtype):
     out = _compute_otfs(shape, pitch, wavelengths, f_number, None if defocus is None else np.asarray(defocus))
+    out = out.astype(dtype, copy=False)
     out.flags.writeable = False
     return out
 
@@ -103,8 +106,11 @@ def blur_planes(data, wavelengths, pitch, f_number, defocus=None):
     ``pitch`` (dy, dx) is the sample spacing at the sensor in metres,
     ``wavelengths`` nm, ``defocus`` W020 in waves per plane (or None).
     Mirror padding against wrap-around; sizes rounded up to fast FFT lengths.
+    Works in the data's dtype: float32 stays float32 (half the time, relative
+    error ~1e-6); anything else is computed in float64.
     """
-    data = np.asarray(data, float)
+    data = np.asarray(data)
+    dtype = np.float32 if data.dtype == np.float32 else np.float64
     h, w, n = data.shape
     wl = np.asarray(wavelengths, float)
     wmax = float(np.max(np.abs(defocus))) if defocus is not None else 0.0
@@ -112,12 +118,37 @@ def blur_planes(data, wavelengths, pitch, f_number, defocus=None):
     mx = _margin(w, pitch[1] * 1e3, wl.max() * 1e-6, f_number, wmax)
     hp = sfft.next_fast_len(h + 2 * my, real=True)
     wp = sfft.next_fast_len(w + 2 * mx, real=True)
-    planes = np.pad(np.moveaxis(data, 2, 0), ((0, 0), (my, hp - h - my), (mx, wp - w - mx)), mode="symmetric")
-    otf = plane_otfs((hp, wp), pitch, wl, f_number, defocus)
+    planes = _mirror_padded(data, dtype, (my, hp - h - my), (mx, wp - w - mx))
+    otf = plane_otfs((hp, wp), pitch, wl, f_number, defocus, dtype)
     spectrum = sfft.rfft2(planes, axes=(1, 2), overwrite_x=True)
     spectrum *= otf
     out = sfft.irfft2(spectrum, s=(hp, wp), axes=(1, 2), overwrite_x=True)[:, my : my + h, mx : mx + w]
     return np.ascontiguousarray(np.moveaxis(out, 0, 2))
+
+
+def _mirror_padded(data, dtype, pad_y, pad_x):
+    """(N, H + pads, W + pads) planes of (H, W, N) ``data``, padded by mirror reflection (edge sample repeated).
+
+    ``np.pad(..., mode="symmetric")`` of the transposed planes, written with
+    slices into one buffer: no transposed copy, no intermediate arrays
+    (padding took a fifth of the stage's time). Pads wider than the image
+    (tiny images) go through ``np.pad``, which reflects repeatedly.
+    """
+    h, w, n = data.shape
+    (top, bottom), (left, right) = pad_y, pad_x
+    if max(top, bottom) > h or max(left, right) > w:
+        return np.pad(np.moveaxis(data, 2, 0).astype(dtype, copy=False), ((0, 0), pad_y, pad_x), mode="symmetric")
+    out = np.empty((n, h + top + bottom, w + left + right), dtype)
+    out[:, top : top + h, left : left + w] = np.moveaxis(data, 2, 0)
+    if top:
+        out[:, :top] = out[:, top : 2 * top][:, ::-1]
+    if bottom:
+        out[:, top + h :] = out[:, top + h - bottom : top + h][:, ::-1]
+    if left:
+        out[:, :, :left] = out[:, :, left : 2 * left][:, :, ::-1]
+    if right:
+        out[:, :, left + w :] = out[:, :, left + w - right : left + w][:, :, ::-1]
+    return out
 
 
 def relative_illumination_map(camera, image):
@@ -147,7 +178,7 @@ def optics(camera, image):
     if image.space != "spectral" or image.mosaiced:
         raise ParameterError("optics", f"acts on the spectral planes of the scene: put it before sensor_responses (got a {image.space} image)")
     d = camera.distance if camera.distance is not None else image.distance
-    data = np.asarray(image.data, float)
+    data = image.data if image.data.dtype == np.float32 else np.asarray(image.data, float)  # float32 stays float32
     squeeze = data.ndim == 2
     if squeeze:
         data = data[:, :, None]
@@ -164,7 +195,7 @@ def optics(camera, image):
     if camera.sensors.unit == "Quanta":
         factor = factor / (1.0 + magnification(camera.focal_length, d)) ** 2
     if not (np.isscalar(factor) and factor == 1.0):
-        data = data * factor
+        data = data * np.asarray(factor, data.dtype)  # in the data's dtype: float32 stays float32
     if squeeze:
         data = data[:, :, 0]
     return image.then("optics", data=data)
