@@ -53,6 +53,8 @@ body.camsim-present { --bokeh-font-size: 20px; --base-font-size: 20px; font-size
 body.camsim-present .bk-input, body.camsim-present label { font-size: 20px; }
 """
 _PRESENT_JS = "document.body.classList.toggle('camsim-present', cb_obj.active)"
+#: Tab titles that do not fit (presentation mode, a narrow window) go to a second row, not out of sight.
+_TAB_TITLES_WRAP = ".bk-header { overflow: visible; } .bk-headers-wrapper { flex-wrap: wrap; overflow: visible; }"
 _BIG = ":host { font-size: var(--camsim-text, inherit); } p, span, div, label, td, th, li { font-size: inherit; }"
 
 
@@ -360,7 +362,8 @@ def _lazy_tabs(state, views):
     so its first render does not wait for plots nobody has looked at yet."""
     holders = [pn.Column(sizing_mode="stretch_width", css_classes=["camsim-tab"]) for _ in TABS]
     tabs = pn.Tabs(*[(title, holder) for (title, _), holder in zip(TABS, holders)],
-                   css_classes=["camsim-tabs"], dynamic=False, sizing_mode="stretch_width")
+                   css_classes=["camsim-tabs"], dynamic=False, sizing_mode="stretch_width",
+                   stylesheets=[_TAB_TITLES_WRAP])
     built = set()
 
     def show(index):

@@ -41,7 +41,8 @@ from camsim_core.review.design import (CAMERA_CHOICES, GAUSSIAN_DEFAULTS, ILLUMI
 from camsim_core.review.sweep import check_sweep
 
 __all__ = ["ExplorerState", "Runner", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_PARAMETERS", "COMPARE_PARAMETERS",
-           "parse_tile", "parse_numbers", "load_upload", "ServerLimits", "LIMITS", "json_depth", "exposure_warnings"]
+           "parse_tile", "parse_numbers", "load_upload", "ServerLimits", "LIMITS", "json_depth", "exposure_warnings",
+           "mean_level"]
 
 #: Bits offered; 0 means unquantized.
 BITS_CHOICES = {"8": 8, "10": 10, "12": 12, "16": 16, "unquantized": 0}
@@ -527,6 +528,11 @@ def exposure_warnings(raw):
     clipped = float(np.mean(data >= full - 0.5)) if raw.quantized else float(np.mean(data >= full))
     dark = float(np.mean(data <= 0.02 * full))
     return clipped, dark
+
+
+def mean_level(raw):
+    """The raw image's mean value as a fraction of its full scale (255 for an unquantized image)."""
+    return float(np.mean(np.asarray(raw.data, float))) / float(raw.full_scale or 255.0)
 
 
 _LABELS = {"noise_sigma": "noise sigma", "f_stop": "f-stop", "exposure": "exposure (s)", "distance": "distance (m)",

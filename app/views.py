@@ -29,7 +29,7 @@ from bokeh.plotting import figure
 from camsim_core.cache import fingerprint
 from camsim_core.simulation import tile_index_map
 
-from .state import exposure_warnings
+from .state import exposure_warnings, mean_level
 
 
 __all__ = ["sensor_colors", "scene_srgb", "raw_rgb", "planes_rgb", "rgba32", "histogram", "de_range",
@@ -122,13 +122,23 @@ def scene_srgb(scene):
     return rgb
 
 
+#: Display gamma of the raw and demosaiced views: their values are linear in light, and shown linearly
+#: a raw at a fifth of full scale looks black although nothing is wrong with it.
+VIEW_GAMMA = 2.2
+
+
+_LINEAR_NOTE = (f"Camera values are linear in light; shown as fractions of full scale with display gamma "
+                f"{VIEW_GAMMA:g}, so that dim values stay visible")
+
+
 def _normalise(data, full_scale):
+    """Values as fractions of full scale (of the 99.5th percentile without one), display-encoded (``VIEW_GAMMA``)."""
     top = full_scale if full_scale else (np.percentile(data, 99.5) or 1.0)
-    return np.clip(np.asarray(data, float) / top, 0, 1)
+    return np.clip(np.asarray(data, float) / top, 0, 1) ** (1.0 / VIEW_GAMMA)
 
 
 def raw_rgb(image):
-    """The raw camera image coloured by sensor: each pixel's value times its sensor's colour."""
+    """The raw camera image coloured by sensor: each pixel's value (display-encoded) times its sensor's colour."""
     colors = sensor_colors(image.sensitivities, image.wavelengths, image.sensor_names)
     data = np.asarray(image.data, float)
     v = _normalise(data, image.full_scale)
@@ -142,7 +152,7 @@ def raw_rgb(image):
 
 
 def planes_rgb(image):
-    """Full sensor planes (H, W, K) as a picture: sum of planes times sensor colours."""
+    """Full sensor planes (H, W, K) as a picture: sum of planes times sensor colours, display-encoded."""
     colors = sensor_colors(image.sensitivities, image.wavelengths, image.sensor_names)
     data = np.asarray(image.data, float)
     if data.ndim == 2:
@@ -323,7 +333,7 @@ class ResultsView:
     refit to the whole image; otherwise zoom and pan are kept.
     """
 
-    TITLES = {"raw": "Raw mosaic (each pixel in its sensor's colour)", "demosaiced": "Demosaiced",
+    TITLES = {"raw": f"<span title='{_LINEAR_NOTE}'>Raw mosaic (each pixel in its sensor's colour)</span>", "demosaiced": "Demosaiced",
               "rendered": "Rendered (the camera's image on the monitor)",
               "ideal": "Ideal image (what a human observer would see)"}
     KEYS = ("raw", "demosaiced", "rendered", "ideal", "de")
@@ -443,7 +453,8 @@ class ResultsView:
                        sensor=[np.ascontiguousarray(sensor)])
         skipped = "demosaic" in getattr(res, "skipped", {})
         self.labels["demosaiced"].object = ("Demosaicing not needed (full-colour image): the sensor planes"
-                                            if skipped else f"Demosaiced ({self.state.shown.get('demosaic_method', '')})")
+                                            if skipped else f"<span title='{_LINEAR_NOTE}'>Demosaiced "
+                                                           f"({self.state.shown.get('demosaic_method', '')})</span>")
         shape = raw.data.shape[:2]
         if self._changed("demosaiced", res.demosaiced):
             self._send("demosaiced", rgba32(planes_rgb(res.demosaiced)) if res.demosaiced is not None
@@ -539,9 +550,10 @@ class ResultsView:
         if dark > 0.25:
             notes.append(f"⚠ {100 * dark:.0f} % of pixels are in the lowest 2 % of the digital range: "
                          "under-exposed (try Auto exposure)")
+        level = self._memo("level", res.raw, mean_level)
         self.warnings.object = "<p>" + (" · ".join(notes) or
                                         f"Clipped {100 * clipped:.1f} % · in the lowest 2 % of levels "
-                                        f"{100 * dark:.1f} %") + "</p>"
+                                        f"{100 * dark:.1f} %") + f" · mean level {100 * level:.0f} % of full scale</p>"
         self.status_data = {
             "params": getattr(res, "params", self.state.to_dict()),
             "computing": busy,

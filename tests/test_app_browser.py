@@ -349,3 +349,11 @@ def test_presentation_mode_has_large_type_and_images(page):
     assert size(".w-noise label") >= 18
     assert page.page.locator(".camsim-rendered-plot").first.bounding_box()["width"] > 1.3 * small
     assert page.page.evaluate("document.documentElement.scrollWidth") <= 1366
+    # every tab title is in sight (a second row of titles rather than one cut off at the edge)
+    tabs = page.page.locator(".camsim-tabs").first.bounding_box()
+    titles = page.page.locator(".camsim-tabs .bk-tab")
+    assert titles.count() == 7
+    for i in range(titles.count()):
+        box = titles.nth(i).bounding_box()
+        assert box["x"] >= tabs["x"] - 1 and box["x"] + box["width"] <= tabs["x"] + tabs["width"] + 1, (
+            titles.nth(i).text_content(), box, tabs)

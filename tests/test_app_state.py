@@ -208,7 +208,7 @@ def test_viewing_is_a_state_parameter_that_sets_scielab_samples_per_degree(state
 import threading  # noqa: E402
 import time  # noqa: E402
 
-from app.state import Runner, exposure_warnings  # noqa: E402
+from app.state import Runner, exposure_warnings, mean_level  # noqa: E402
 from app.views import de_range, histogram, rgba32  # noqa: E402
 
 
@@ -309,6 +309,19 @@ def test_exposure_warnings_count_clipped_and_dark_pixels(state):
     data.flat[data.size // 4: data.size // 2] = 128  # a quarter mid-range, the rest at 0
     clipped, dark = exposure_warnings(raw.replace(data=data))
     assert clipped == pytest.approx(0.25, abs=1e-6) and dark == pytest.approx(0.5, abs=1e-6)
+    assert mean_level(raw.replace(data=data)) == pytest.approx((0.25 * 255 + 0.25 * 128) / raw.full_scale)
+
+
+def test_raw_and_demosaiced_views_are_display_encoded_so_a_fifth_of_full_scale_is_not_black(state):
+    from app.views import VIEW_GAMMA, planes_rgb, raw_rgb
+
+    raw = state.result.raw
+    fifth = raw.replace(data=np.full(raw.data.shape, 0.2 * raw.full_scale))
+    shown = raw_rgb(fifth)
+    brightest = shown.max(axis=-1)  # each pixel shows its sensor's colour at the encoded value
+    np.testing.assert_allclose(brightest, 0.2 ** (1 / 2.2), rtol=1e-6)
+    assert VIEW_GAMMA == 2.2 and brightest.min() > 0.45  # linear display would show 0.2: near black
+    assert planes_rgb(state.result.demosaiced).max() <= 1.0
 
 
 def test_auto_exposure_says_what_it_aims_at(state):
