@@ -37,10 +37,10 @@ import panel as pn
 from holoviews import streams
 
 from camsim_core.errors import CamsimError
-from camsim_core.review.design import (DESIGN_DEFAULTS, MAX_PINNED, _SHARED, check_pinned, differing_parameters,
-                                       evaluate_design, result_from_pipeline)
+from camsim_core.review.design import (DESIGN_DEFAULTS, MAX_PINNED, QUALITY_LABELS, _SHARED,
+                                       check_pinned, differing_parameters, evaluate_design, result_from_pipeline)
 from camsim_core.review.difference import ab_difference
-from camsim_core.review.report import DESIGN_COLOURS, report_html, shared_scale
+from camsim_core.review.report import DESIGN_COLOURS, quality_cell, report_html, shared_scale
 from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
 
 hv.Store.set_current_backend("bokeh")
@@ -505,6 +505,11 @@ class CompareView:
                     f'<td class="num" data-value="{r.measures[key][stat]!r}">{r.measures[key][stat]:.2f}</td>'
                     if key in r.measures else "<td>n/a</td>" for r in results)
                 rows.append(f'<tr class="measure" data-measure="{key}-{stat}"><th>{label} {metric}</th>{cells}</tr>')
+        for key, label in QUALITY_LABELS.items():  # the image-quality measures the scene allows
+            if not any(key in r.quality for r in results):
+                continue
+            cells = "".join(quality_cell(r, key) for r in results)
+            rows.append(f'<tr class="measure" data-measure="{key}"><th>{label}</th>{cells}</tr>')
         style = ("<style>table.cmp{border-collapse:collapse} table.cmp th, table.cmp td{border:1px solid #ccc;"
                  "padding:2px 8px} td.num{text-align:right}</style>")
         note = "" if differ else "<p>The designs have the same parameters.</p>"

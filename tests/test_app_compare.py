@@ -41,6 +41,11 @@ def test_pinned_designs_show_the_engines_numbers(compared, engine):
         assert f'data-value="{r.measures["cielab"]["mean"]!r}"' in view.table.object
     assert "kodak-dcs200-ir" in view.table.object and "human-cones" in view.table.object
     assert [slot.visible for slot in view.slots] == [True, True, False, False, False]
+    # and the image-quality measures the scene allows, as the engine computes them for each design alone
+    for name, r in engine.items():
+        assert set(r.quality) == {"psnr_db", "ssim"}
+        assert f'data-value="{r.quality["psnr_db"]!r}"' in view.table.object
+    assert 'data-measure="ssim"' in view.table.object and 'data-measure="mtf50"' not in view.table.object
 
 
 def test_each_pinned_design_is_computed_once(compared, monkeypatch):

@@ -202,3 +202,44 @@ def test_engine_refusal_names_the_design(tmp_path, capsys):
     assert not (tmp_path / "r.html").exists()
     with pytest.raises(CamsimError):
         evaluate_design({"mosaic": "4-sensor grid"}, "grid")
+
+
+def test_quality_measures_follow_the_scene_and_match_independent_references():
+    from skimage.metrics import peak_signal_noise_ratio
+
+    edge = evaluate_design({"scene": "slanted-edge"})
+    chart = evaluate_design({"scene": "macbeth"})
+    photo = evaluate_design({"scene": "cacaphony290"})
+    assert set(edge.quality) == {"psnr_db", "ssim", "mtf50"} and 0 < edge.quality["mtf50"] <= 0.5
+    assert set(chart.quality) == {"psnr_db", "ssim", "macbeth_de2000"} and chart.quality["macbeth_de2000"] > 0
+    assert set(photo.quality) == {"psnr_db", "ssim"} and 0 < photo.quality["ssim"] < 1
+    # PSNR of the rendered image against the ideal one, as scikit-image computes it (8-bit monitor settings)
+    expected = peak_signal_noise_ratio(np.asarray(photo.ideal, float), np.asarray(photo.rendered, float), data_range=255)
+    assert photo.quality["psnr_db"] == pytest.approx(expected, rel=1e-9)
+
+
+def test_raw_snr_on_a_uniform_field_drops_by_the_noise_ratio():
+    """Additive noise sigma 2 -> 8 DU (8-bit, quantization step variance 1/12): SNR falls by
+    20 log10(sqrt(64 + 1/12) / sqrt(4 + 1/12)) = 11.96 dB; a noiseless field has an unbounded SNR.
+    The exposure puts the field near 100 DU, so that no noise is clipped at 0 or at full scale."""
+    low, high, none = (evaluate_design({"scene": "uniform", "noise_sigma": s, "bits": 8, "exposure": 0.5})
+                       for s in (2.0, 8.0, 0.0))
+    drop = low.quality["snr_db"] - high.quality["snr_db"]
+    assert drop == pytest.approx(20 * np.log10(np.sqrt(64 + 1 / 12) / np.sqrt(4 + 1 / 12)), abs=0.5)
+    assert none.quality["snr_db"] == np.inf
+
+
+def test_sweeps_leave_the_quality_measures_out_and_tables_show_them(dcs, monkeypatch):
+    from camsim_core.review import design
+
+    def refuse(*args):
+        raise AssertionError("a sweep point computed the image-quality measures")
+
+    with monkeypatch.context() as m:
+        m.setattr(design, "quality_measures", refuse)
+        points = run_sweep([("dcs", {"scene": "macbeth"})], "noise_sigma", [0.0, 1.0])
+    assert [p.error for p in points] == [None, None]
+    chart = evaluate_design({"scene": "macbeth"}, "chart")
+    page = report_html([chart, dcs])
+    assert "Macbeth chart, mean CIEDE2000" in page and f"{chart.quality['macbeth_de2000']:.2f}" in page
+    assert page.count("<td>n/a</td>") >= 1  # the photo allows no chart measure

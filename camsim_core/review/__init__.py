@@ -10,12 +10,14 @@ The chapter's section 5: simulation lets one compare camera designs and algorith
 No GUI imports: this package is engine code.
 """
 
-from .design import (DESIGN_DEFAULTS, DESIGN_PARAMETERS, DesignResult, camera_from_params, check_params,
-                     differing_parameters, evaluate_design, measures, processing_from_params, read_design_file)
+from .design import (DESIGN_DEFAULTS, DESIGN_PARAMETERS, QUALITY_LABELS, DesignResult, camera_from_params, check_params,
+                     differing_parameters, evaluate_design, measures, processing_from_params, quality_measures,
+                     read_design_file)
 from .sweep import MAX_SWEEP_DESIGNS, MAX_SWEEP_VALUES, SWEEP_PARAMETERS, SweepPoint, design_at, iter_sweep, run_sweep
 
 __all__ = [
     "DESIGN_DEFAULTS", "DESIGN_PARAMETERS", "DesignResult", "camera_from_params", "check_params",
     "differing_parameters", "evaluate_design", "measures", "processing_from_params", "read_design_file",
+    "QUALITY_LABELS", "quality_measures",
     "MAX_SWEEP_DESIGNS", "MAX_SWEEP_VALUES", "SWEEP_PARAMETERS", "SweepPoint", "design_at", "iter_sweep", "run_sweep",
 ]

@@ -33,7 +33,7 @@ __all__ = [
     "DESIGN_DEFAULTS", "DESIGN_PARAMETERS", "CAMERA_CHOICES", "MOSAIC_CHOICES", "RENDER_CHOICES",
     "ILLUMINANT_CHOICES", "METRIC_CHOICES", "GAUSSIAN_DEFAULTS", "DesignResult",
     "check_params", "camera_from_params", "processing_from_params", "scene_from_params",
-    "evaluate_design", "measures", "check_pinned", "MAX_PINNED", "read_design_file", "result_from_pipeline", "parse_numbers", "parse_tile", "differing_parameters",
+    "evaluate_design", "measures", "quality_measures", "QUALITY_LABELS", "QUALITY_DIGITS", "check_pinned", "MAX_PINNED", "read_design_file", "result_from_pipeline", "parse_numbers", "parse_tile", "differing_parameters",
 ]
 
 
@@ -311,7 +311,9 @@ class DesignResult:
     0..255); ``xyz`` the rendered image's XYZ on the monitor (cd/m^2) and
     ``white`` the monitor white; ``delta_e`` and ``scielab`` the (H, W)
     CIELAB and S-CIELAB dE maps against the ideal image; ``measures`` maps
-    "cielab" and "scielab" to their mean, median and 95th percentile.
+    "cielab" and "scielab" to their mean, median and 95th percentile;
+    ``quality`` the image-quality measures the scene allows (keys of
+    :data:`QUALITY_LABELS`, see :func:`quality_measures`).
     """
 
     name: str
@@ -326,6 +328,7 @@ class DesignResult:
     delta_e: np.ndarray | None = None
     scielab: np.ndarray | None = None
     measures: dict = field(default_factory=dict)
+    quality: dict = field(default_factory=dict)
     seconds: float = 0.0
 
     @property
@@ -345,7 +348,52 @@ class DesignResult:
         return int(sum(a.nbytes for a in arrays if a is not None))
 
 
-def evaluate_design(params, name="design", *, scene=None, pipeline=None, metrics=("cielab", "scielab")):
+#: The image-quality measures of a design, with their units, in the order tables list them.
+QUALITY_LABELS = {
+    "psnr_db": "PSNR against the ideal image (dB)",
+    "ssim": "SSIM against the ideal image",
+    "mtf50": "MTF50, slanted edge (cycles/pixel)",
+    "snr_db": "SNR of the raw, uniform field (dB, mean over sensors)",
+    "macbeth_de2000": "Macbeth chart, mean CIEDE2000",
+}
+#: Decimals each measure is shown with.
+QUALITY_DIGITS = {"psnr_db": 2, "ssim": 4, "mtf50": 3, "snr_db": 2, "macbeth_de2000": 2}
+
+
+def quality_measures(res, monitor):
+    """The image-quality measures a pipeline result allows, as numbers (keys of :data:`QUALITY_LABELS`).
+
+    Every scene gets PSNR and SSIM of the rendered image against the ideal
+    image; the slanted-edge chart adds the luminance MTF50 of the demosaiced
+    image, the uniform field the raw's SNR on its central region (mean of the
+    sensors' dB), the Macbeth chart the mean CIEDE2000 of its patches; all
+    by :func:`camsim_core.metrics.report.measure_images`, as the explorer's
+    Image quality tab and ``camsim measure`` compute them. A measure the
+    images do not allow (an edge too short to fit) is left out.
+    """
+    from ..metrics.report import default_measures, measure_images
+
+    scene_name = getattr(res.scene, "name", "")
+    out = {}
+    for what in ("similarity",) + tuple(m for m in default_measures(scene_name) if m != "similarity"):
+        try:
+            m = measure_images((what,), raw=res.raw, demosaiced=res.demosaiced, rendered=res.rendered,
+                               ideal=res.ideal, monitor=monitor)
+        except CamsimError:
+            continue
+        if what == "similarity":
+            out["psnr_db"], out["ssim"] = m["similarity"]["psnr_db"], m["similarity"]["ssim"]
+        elif what == "mtf":
+            mtf = m["mtf"].get("luminance") or next(iter(m["mtf"].values()))
+            out["mtf50"] = mtf["mtf50"]
+        elif what == "snr":
+            out["snr_db"] = float(np.mean([c["snr_db"] for c in m["snr"]["channels"].values()]))
+        elif what == "color":
+            out["macbeth_de2000"] = m["color"]["mean"]
+    return {k: float(v) for k, v in out.items() if v is not None}
+
+
+def evaluate_design(params, name="design", *, scene=None, pipeline=None, metrics=("cielab", "scielab"), quality=True):
     """Simulate, process and score one design on its scene.
 
     Parameters
@@ -361,6 +409,8 @@ def evaluate_design(params, name="design", *, scene=None, pipeline=None, metrics
         The result is exactly that of a fresh run either way.
     metrics : tuple
         Error maps to compute: "cielab" and/or "scielab".
+    quality : bool
+        Also the image-quality measures (:func:`quality_measures`; sweeps leave them out).
 
     Returns
     -------
@@ -384,11 +434,12 @@ def evaluate_design(params, name="design", *, scene=None, pipeline=None, metrics
         raise CamsimError(f"{name}: {exc}") from None
     proc = processing_from_params(p, metrics=metrics)
     res = (pipeline or Pipeline()).run(scene_obj, camera, proc)
-    return result_from_pipeline(res, p, name, proc)
+    return result_from_pipeline(res, p, name, proc, quality=quality)
 
 
-def result_from_pipeline(res, params, name, processing):
-    """A :class:`DesignResult` from a :class:`~camsim_core.cache.Result` (a CamsimError if a step failed)."""
+def result_from_pipeline(res, params, name, processing, quality=True):
+    """A :class:`DesignResult` from a :class:`~camsim_core.cache.Result` (a CamsimError if a step failed);
+    ``quality``: with the image-quality measures."""
     if res.errors or res.delta_e is None:
         detail = "; ".join(f"{k}: {v}" for k, v in res.errors.items()) or "no error map was computed"
         raise CamsimError(f"{name}: {detail}")
@@ -404,6 +455,8 @@ def result_from_pipeline(res, params, name, processing):
     out.measures = {"cielab": measures(out.delta_e)}
     if out.scielab is not None:
         out.measures["scielab"] = measures(out.scielab)
+    if quality:
+        out.quality = quality_measures(res, processing.monitor)
     return out
 
 

@@ -28,10 +28,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ParameterError
-from .design import DESIGN_PARAMETERS, differing_parameters
+from .design import DESIGN_PARAMETERS, QUALITY_DIGITS, QUALITY_LABELS, differing_parameters
 from .sweep import SWEEP_PARAMETERS
 
-__all__ = ["report_html", "write_report", "shared_scale", "png_data_uri", "colour_map"]
+__all__ = ["report_html", "write_report", "shared_scale", "png_data_uri", "colour_map", "quality_cell"]
 
 #: Colours of designs in plots (matplotlib's tab10, first five).
 DESIGN_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd")
@@ -119,6 +119,14 @@ def _fmt(v, digits=2):
     return "n/a" if v is None else f"{v:.{digits}f}"
 
 
+def quality_cell(result, key):
+    """A table cell with a design's image-quality measure ``key`` (n/a where its scene does not allow it)."""
+    if key not in result.quality:
+        return "<td>n/a</td>"
+    v = result.quality[key]
+    return f'<td class="num" data-value="{v!r}">{v:.{QUALITY_DIGITS[key]}f}</td>'
+
+
 def _cell(v):
     """A table cell with the number shown to 2 decimals and in full in ``data-value``."""
     if v is None:
@@ -155,16 +163,20 @@ def report_html(results, *, sweep=None, points=None, ab=None, title="camsim desi
     maps = [r.delta_e for r in results] + [r.scielab for r in results if r.scielab is not None]
     top = shared_scale(maps)
     scenes = sorted({r.scene_name or str(r.params.get("scene")) for r in results})
+    quality = [k for k in QUALITY_LABELS if any(k in r.quality for r in results)]  # what the scene allows
     rows = []
     for r in results:
         m = r.measures
         s = m.get("scielab", {})
+        cells = "".join(quality_cell(r, k) for k in quality)
         rows.append(f"<tr><th>{e(r.name)}</th>{_cell(m['cielab']['mean'])}{_cell(m['cielab']['median'])}"
-                    f"{_cell(m['cielab']['p95'])}{_cell(s.get('mean'))}{_cell(s.get('median'))}{_cell(s.get('p95'))}</tr>")
+                    f"{_cell(m['cielab']['p95'])}{_cell(s.get('mean'))}{_cell(s.get('median'))}{_cell(s.get('p95'))}"
+                    f"{cells}</tr>")
     measures_table = (
         '<table class="measures" id="measures"><thead><tr><th>design</th><th>mean dE</th><th>median dE</th>'
         "<th>95th pct dE</th><th>mean S-CIELAB dE</th><th>median S-CIELAB dE</th><th>95th pct S-CIELAB dE</th>"
-        "</tr></thead><tbody>" + "".join(rows) + "</tbody></table>")
+        + "".join(f"<th>{e(QUALITY_LABELS[k])}</th>" for k in quality)
+        + "</tr></thead><tbody>" + "".join(rows) + "</tbody></table>")
     params = [r.params for r in results]
     differ = differing_parameters(params, skip=_SKIP)
     head = "".join(f"<th>{e(r.name)}</th>" for r in results)

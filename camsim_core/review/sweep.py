@@ -157,7 +157,7 @@ def _points(designs, parameter, values, scene, max_workers, cancel, metrics):
                     break
                 p = design_at(params, parameter, v, where=name)
                 try:
-                    r = evaluate_design(p, name, scene=scene, pipeline=pipeline, metrics=metrics)
+                    r = evaluate_design(p, name, scene=scene, pipeline=pipeline, metrics=metrics, quality=False)
                     out.put(SweepPoint(index, name, v, p, measures=r.measures))
                 except CamsimError as exc:
                     out.put(SweepPoint(index, name, v, p, error=str(exc)))
