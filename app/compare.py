@@ -51,7 +51,8 @@ LIVE = "live"
 SLOTS = MAX_PINNED + 1
 # framewise: each new image sets the (shared) ranges to its own extent; without it the ranges stay at those of
 # the first, 2 x 2 placeholder, and every image opens zoomed into its corner
-IMAGE_OPTS = dict(frame_width=250, data_aspect=1, xaxis=None, yaxis=None, toolbar="above",
+# the toolbar on the right: above, it shares its row with the title and covers it at this width
+IMAGE_OPTS = dict(frame_width=250, data_aspect=1, xaxis=None, yaxis=None, toolbar="right",
                   tools=["hover"], active_tools=["wheel_zoom"], framewise=True)
 _WIN_COLOURS = np.array([[31, 119, 180], [255, 127, 14], [200, 200, 200]]) / 255.0
 
