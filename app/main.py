@@ -23,6 +23,8 @@ import panel as pn
 from bokeh.core.validation import silence
 from bokeh.core.validation.warnings import FIXED_SIZING_MODE
 
+from camsim_core.scene.charts import CHART_NAMES, chart_defaults
+
 from . import state as state_module
 from .compare import compare_tab
 from .quality import QualityView
@@ -196,6 +198,26 @@ def _select(state, name, css, label):
 def _controls(state, results):
     w = pn.widgets
     scene = _select(state, "scene", "w-scene", "Scene")
+    chart_options = pn.widgets.TextInput(name="Chart options (key=value, ...; Enter applies)", css_classes=["w-chart"],
+                                         sizing_mode="stretch_width")
+
+    def on_scene(*_):
+        """The chart options box follows the scene: shown for a test chart, holding its options."""
+        base, _, options = state.scene.partition(":")
+        chart_options.visible = base in CHART_NAMES
+        if chart_options.visible:
+            chart_options.value = options
+            chart_options.placeholder = ", ".join(f"{k}={v}" for k, v in chart_defaults(base).items())[:200]
+
+    def on_chart_options(event):
+        state.set_chart(event.new)
+        # on the next tick: the box then shows the options in force (tidied, or those of the chart in use
+        # after a refusal); set during the browser's own change, the value would not be sent back
+        state.defer(on_scene)
+
+    state.param.watch(on_scene, "scene")
+    chart_options.param.watch(on_chart_options, "value")
+    on_scene()
     limits = state_module.LIMITS
     upload = BoundedUpload(accept=".npz,.zip,.mat,.png,.jpg,.jpeg", max_bytes=limits.upload.max_upload_bytes, css_classes=["w-upload"],
                            sizing_mode="stretch_width", visible=_options["upload"])
@@ -289,7 +311,7 @@ def _controls(state, results):
     ]
     card = dict(sizing_mode="stretch_width", margin=(4, 0))
     return [
-        pn.Card(scene, pn.pane.Markdown("Upload a scene (.npz, .mat, a photo, or a .zip of a .Simg, an ENVI .hdr or "
+        pn.Card(scene, chart_options, pn.pane.Markdown("Upload a scene (.npz, .mat, a photo, or a .zip of a .Simg, an ENVI .hdr or "
                                         "band PNGs):", visible=_options["upload"]), upload, title="Scene", **card),
         pn.Card(camera, alpha, centers, widths, mosaic, tile, title="Camera", **card),
         pn.Card(distance, pn.Row(exposure, auto, sizing_mode="stretch_width"), f_stop, noise, bits, seed,
@@ -424,6 +446,7 @@ def create_app(scene=None):
             state.message = (f"The link's values for {', '.join(too_long)} are longer than "
                              f"{state_module.LIMITS.max_text} characters and were ignored")
         else:
+            _offer_linked_chart(state, pn.state.location.search)
             pn.state.location.sync(state, {p: p for p in URL_PARAMETERS + COMPARE_PARAMETERS}, on_error=on_error)
     views = {"state": state}
     views["results"] = results = ResultsView(state)
@@ -483,6 +506,15 @@ class _Template(pn.template.BootstrapTemplate):
             return super().server_doc(doc, title, location)
         with doc.models.freeze():
             return super().server_doc(doc, title, location)
+
+
+def _offer_linked_chart(state, search):
+    """A link to a chart with options ("scene=slanted-edge:angle=10"): make that chart before the link is applied."""
+    from urllib.parse import parse_qsl
+
+    scenes = [v for k, v in parse_qsl(str(search or "").lstrip("?")) if k == "scene"]
+    if scenes and ":" in scenes[-1] and scenes[-1] not in state.param.scene.objects:
+        state.offer_chart(scenes[-1])
 
 
 def _long_url_values(search):

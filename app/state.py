@@ -87,6 +87,9 @@ class ServerLimits:
         Deepest nesting of the parameters JSON, default 4 (it is flat: an object of values).
     max_uploads : int
         Uploaded scenes a session keeps (the oldest is dropped), default 3.
+    max_chart_values : int
+        Largest test chart a session may ask for, pixels x wavelengths, default 16.3 million
+        (a 724 x 724 x 31 chart; the shipped charts are at most 512 x 512).
     """
 
     upload: UploadLimits = field(default_factory=UploadLimits)
@@ -96,6 +99,7 @@ class ServerLimits:
     max_json_bytes: int = 64 * 1024
     max_json_depth: int = 4
     max_uploads: int = 3
+    max_chart_values: int = 724 * 724 * 31
 
 
 #: The limits in force in this process (``camsim serve`` replaces them).
@@ -399,8 +403,58 @@ class ExplorerState(param.Parameterized):
         self.add_scene(f"upload:{scene.name}", scene)
         return True
 
-    def add_scene(self, key, scene):
-        """Offer ``scene`` (a Scene object) under ``key`` in this session and select it.
+    def set_chart(self, options):
+        """Select the current test chart made with ``options`` ("angle=10, contrast=2"; empty: its defaults).
+
+        See :meth:`offer_chart`. Returns whether the chart was selected.
+        """
+        from camsim_core.scene.charts import CHART_NAMES
+
+        base = self.scene.partition(":")[0]
+        if base not in CHART_NAMES:
+            self.message = f"Chart options apply to a test chart ({', '.join(CHART_NAMES)}), not to {self.scene!r}"
+            return False
+        return self.offer_chart(f"{base}:{options}", select=True)
+
+    def offer_chart(self, name, select=False):
+        """Offer the chart ``name`` ("slanted-edge:angle=10,contrast=2") as a scene of this session.
+
+        The chart is made once and kept like an upload, under the name
+        ``load_scene`` reads back, so a link, the parameters file, pinned
+        designs and the report reproduce it. Unknown or bad options, options
+        the explorer does not offer (wavelengths, sampling) and charts larger
+        than ``LIMITS.max_chart_values`` are refused with a message, before
+        anything is made. Returns whether the chart is offered.
+        """
+        from camsim_core.scene.charts import CHART_NAMES, chart, parse_chart
+
+        text = str(name)
+        if text.partition(":")[0].strip().lower() not in CHART_NAMES:
+            self.message = f"Scene {text[:80]!r} is neither one of this session's scenes nor a chart with options"
+            return False
+        if len(text) > LIMITS.max_text:
+            self.message = f"Chart options are longer than {LIMITS.max_text} characters"
+            return False
+        try:
+            base, opts = parse_chart(text.replace(";", ","))
+            fixed = sorted(set(opts) & {"wavelengths", "angular_resolution"})
+            if fixed:
+                raise ParameterError("chart", f"the explorer's charts keep their {' and '.join(fixed)}")
+            key = base + (":" + ",".join(f"{k}={_option_text(v)}" for k, v in opts.items()) if opts else "")
+            scene = None
+            if opts and key not in self._uploads:
+                scene = chart(key, max_values=LIMITS.max_chart_values)
+        except CamsimError as exc:
+            self.message = f"Chart options refused: {exc}"
+            return False
+        if scene is not None:
+            self.add_scene(key, scene, select=select)
+        elif select:
+            self.scene = key
+        return True
+
+    def add_scene(self, key, scene, select=True):
+        """Offer ``scene`` (a Scene object) under ``key`` in this session and select it (``select``).
 
         A session keeps at most ``LIMITS.max_uploads`` scenes of its own; the oldest is dropped.
         """
@@ -412,7 +466,8 @@ class ExplorerState(param.Parameterized):
             del self._uploads[old]
             objs = [o for o in objs if o != old]
         self.param.scene.objects = objs + [key]
-        self.scene = key
+        if select:
+            self.scene = key
 
     # -- reproducible state ----------------------------------------------------
     def to_dict(self):
@@ -459,6 +514,10 @@ class ExplorerState(param.Parameterized):
         except CamsimError as exc:
             self.message = f"Parameters file refused: {exc}"
             return False
+        scene = values.get("scene")
+        if isinstance(scene, str) and ":" in scene and scene not in self.param.scene.objects:
+            if not self.offer_chart(scene):  # a chart with options is made here; anything else is refused below
+                return False
         before = self.to_dict()
         try:
             self._updating = True
@@ -544,6 +603,13 @@ def _range_text(bounds):
     if hi is None:
         return f"[{lo:g}, no upper limit)"
     return f"[{lo:g}, {hi:g}]"
+
+
+def _option_text(value):
+    """A chart option as ``parse_chart`` reads it back (a size pair as HxW)."""
+    if isinstance(value, tuple):
+        return "x".join(str(v) for v in value)
+    return f"{value:g}" if isinstance(value, float) else str(value)
 
 
 def parse_numbers_safe(text):

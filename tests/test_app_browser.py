@@ -357,3 +357,30 @@ def test_presentation_mode_has_large_type_and_images(page):
         box = titles.nth(i).bounding_box()
         assert box["x"] >= tabs["x"] - 1 and box["x"] + box["width"] <= tabs["x"] + tabs["width"] + 1, (
             titles.nth(i).text_content(), box, tabs)
+
+
+def test_chart_options_make_the_chart_a_link_reproduces_and_bad_ones_are_refused(browser, page):
+    options = page.page.locator(".w-chart input").first
+    assert not options.is_visible()  # a photo has no chart options
+    page.select("w-scene", "slanted-edge")
+    page.wait_for(lambda s: s["params"]["scene"] == "slanted-edge")
+    assert options.is_visible() and "angle=5.0" in options.get_attribute("placeholder")
+    options.fill("angle=10, contrast=2, size=96")
+    options.press("Enter")
+    chosen = page.wait_for(lambda s: s["params"]["scene"] == "slanted-edge:angle=10,contrast=2,size=96")
+    assert options.input_value() == "angle=10,contrast=2,size=96"
+    page.shot("chart-options")
+    page.page.wait_for_function("() => window.location.search.includes('contrast%3D2') "
+                                "|| window.location.search.includes('contrast=2')", timeout=30000)
+    second = Page(browser, page.page.url)
+    try:
+        restored = second.wait_for(lambda s: s["params"]["scene"] == chosen["params"]["scene"])
+        assert restored["mean_de"] == chosen["mean_de"] and restored["rendered_hash"] == chosen["rendered_hash"]
+    finally:
+        second.close()
+    options.fill("size=100000")
+    options.press("Enter")
+    page.page.wait_for_timeout(500)
+    assert "more than the" in page.alert_text()
+    assert options.input_value() == "angle=10,contrast=2,size=96"  # the box shows the chart in use again
+    assert page.params()["scene"] == chosen["params"]["scene"]

@@ -376,3 +376,37 @@ def test_the_servers_warm_up_leaves_the_first_page_nothing_to_compute(monkeypatc
     page = ExplorerState(scene=main.DEFAULT_SCENE)
     assert page.result.ran_steps == []
     assert page.result.rendered is not None and np.nanmean(page.result.delta_e) > 0
+
+
+def test_chart_options_make_a_chart_that_links_and_files_reproduce():
+    import json
+
+    state = ExplorerState(scene="slanted-edge")
+    assert state.set_chart("angle=10; contrast=2, size=64x96"), state.message
+    assert state.scene == "slanted-edge:angle=10,contrast=2,size=64x96"
+    assert state.result.scene.data.shape == (64, 96, 31)
+    expected = cc.load_scene(state.scene)  # the name alone makes the same chart (links, files, the report)
+    np.testing.assert_array_equal(state.result.scene.data, expected.data)
+    other = ExplorerState()
+    assert other.from_json(json.dumps({"scene": state.scene})), other.message
+    assert other.scene == state.scene and other.result.scene.data.shape == (64, 96, 31)
+    assert state.set_chart("") and state.scene == "slanted-edge"
+
+
+@pytest.mark.parametrize("options, message", [
+    ("size=100000", "more than the"), ("bogus=1", "no option bogus"), ("wavelengths=5", "keep their wavelengths"),
+    ("angle", "must be key=value"), ("x" * 300, "longer than")])
+def test_bad_chart_options_are_refused_with_a_message_and_the_chart_stays(options, message):
+    state = ExplorerState(scene="slanted-edge")
+    shown = state.result
+    assert not state.set_chart(options)
+    assert message in state.message and state.scene == "slanted-edge" and state.result is shown
+
+
+def test_chart_options_need_a_chart_and_files_name_only_real_scenes():
+    import json
+
+    state = ExplorerState()
+    assert not state.set_chart("angle=10") and "apply to a test chart" in state.message
+    assert not state.from_json(json.dumps({"scene": "upload:elsewhere"}))
+    assert "neither one of this session's scenes nor a chart" in state.message and state.scene == "cacaphony290"

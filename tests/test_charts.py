@@ -88,3 +88,31 @@ def test_charts_with_options_by_name():
         cs.load_scene("slanted-edge:angel=10")
     with pytest.raises(ParameterError, match="key=value"):
         cs.load_scene("zone-plate:0.4")
+
+
+@pytest.mark.parametrize("name", ["slanted-edge:size=40x56,angle=10", "zone-plate:size=48", "uniform:size=16",
+                                  "munsell:rows=2,cols=3,patch_size=5,border=2"])
+def test_chart_shape_is_the_shape_of_the_chart_made(name):
+    from camsim_core.scene.charts import chart, chart_shape
+
+    assert chart_shape(name) == chart(name).data.shape
+
+
+def test_a_chart_too_large_is_refused_before_anything_is_allocated():
+    import tracemalloc
+
+    from camsim_core.scene.charts import MAX_CHART_VALUES, chart
+
+    tracemalloc.start()
+    try:
+        with pytest.raises(ParameterError, match="size: 100000 x 100000 pixels x 31 wavelengths"):
+            chart("slanted-edge:size=100000")
+        with pytest.raises(ParameterError, match="more than the 1,000 values"):
+            chart("uniform:size=16", max_values=1000)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 1e6  # bytes: nothing of the chart's size was made
+    assert MAX_CHART_VALUES == 2048 * 2048 * 31
+    with pytest.raises(ParameterError, match="whole numbers"):
+        chart("munsell:rows=2.5")

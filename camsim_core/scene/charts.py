@@ -19,7 +19,8 @@ from ..spectra import Spectrum, resample
 from .scene import Scene
 from .synthetic import DEFAULT_WAVELENGTHS, _illuminant, scale_to_luminance
 
-__all__ = ["slanted_edge_scene", "zone_plate_scene", "uniform_scene", "munsell_scene", "chart", "parse_chart", "CHART_NAMES",
+__all__ = ["slanted_edge_scene", "zone_plate_scene", "uniform_scene", "munsell_scene", "chart", "parse_chart", "chart_shape", "chart_defaults",
+           "MAX_CHART_VALUES", "CHART_NAMES",
            "CHART_ANGULAR_RESOLUTION"]
 
 #: Default chart sampling, px/deg: 4 x the DCS-200's 102.6.
@@ -170,12 +171,13 @@ def parse_chart(text):
     return name.strip().lower(), options
 
 
-def chart(name, **options):
-    """A chart by name (:data:`CHART_NAMES`) with ``options`` for its generator.
+#: The most values (pixels x wavelengths) a chart may have unless the caller allows more:
+#: a 2048 x 2048 x 31 cube (1 GiB in float64).
+MAX_CHART_VALUES = 2048 * 2048 * 31
 
-    ``name`` may carry options itself, ``"zone-plate:max_frequency=0.4"``
-    (see :func:`parse_chart`); unknown options are refused by name.
-    """
+
+def _generator(name, options):
+    """The chart's generator and its options (those in ``name`` and ``options``), unknown ones refused."""
     import inspect
 
     key, parsed = parse_chart(name)
@@ -183,8 +185,44 @@ def chart(name, **options):
     if key not in _CHARTS:
         raise ParameterError("chart", f"unknown chart {name!r}; known: {', '.join(CHART_NAMES)}")
     fn = _CHARTS[key]
-    valid = [p for p in inspect.signature(fn).parameters]
-    unknown = sorted(set(options) - set(valid))
+    params = inspect.signature(fn).parameters
+    unknown = sorted(set(options) - set(params))
     if unknown:
-        raise ParameterError("chart", f"{key} has no option {', '.join(unknown)}; valid: {', '.join(valid)}")
+        raise ParameterError("chart", f"{key} has no option {', '.join(unknown)}; valid: {', '.join(params)}")
+    return key, fn, options, {k: p.default for k, p in params.items()}
+
+
+def chart_defaults(name):
+    """The options a user sets on chart ``name`` and their defaults (its sampling and wavelengths left out)."""
+    _, _, _, defaults = _generator(name, {})
+    return {k: v for k, v in defaults.items() if k not in ("wavelengths", "angular_resolution", "chips")}
+
+
+def chart_shape(name, **options):
+    """``(height, width, planes)`` of the chart ``chart(name, **options)`` would make, without making it."""
+    key, _, options, defaults = _generator(name, options)
+    o = {**defaults, **options}
+    planes = np.size(o["wavelengths"])
+    if key == "munsell":
+        rows, cols, patch, border = (o[k] for k in ("rows", "cols", "patch_size", "border"))
+        if not all(isinstance(v, (int, np.integer)) for v in (rows, cols, patch, border)):
+            raise ParameterError("rows", "rows, cols, patch_size and border must be whole numbers")
+        step = patch + border
+        return border + rows * step, border + cols * step, planes
+    return (*_size(o["size"]), planes)
+
+
+def chart(name, max_values=MAX_CHART_VALUES, **options):
+    """A chart by name (:data:`CHART_NAMES`) with ``options`` for its generator.
+
+    ``name`` may carry options itself, ``"zone-plate:max_frequency=0.4"``
+    (see :func:`parse_chart`); unknown options are refused by name. A chart
+    of more than ``max_values`` values (pixels x wavelengths) is refused
+    before anything is allocated.
+    """
+    h, w, planes = chart_shape(name, **options)
+    if h * w * planes > max_values:
+        raise ParameterError("size", f"{h} x {w} pixels x {planes} wavelengths is more than the "
+                                     f"{max_values:,} values a chart may have here")
+    _, fn, options, _ = _generator(name, options)
     return fn(**options)
