@@ -153,3 +153,16 @@ def test_report_download_is_self_contained(compared):
     assert srcs and all(s.startswith("data:image/png;base64,") for s in srcs)
     assert "DCS-200" in html and "A/B difference" in html
     assert np.isfinite(json.loads(view.status.object)["store"]["megabytes"])
+
+
+def test_the_live_design_skips_the_quality_measures_but_its_report_has_them():
+    state = ExplorerState()
+    view = CompareView(state)
+    view.pin("DCS-200")
+    state.noise_sigma = 4.0  # the live design now differs from the pinned one
+    live = view.live_result()
+    assert live.quality == {}  # on every move: none of their 75-100 ms
+    assert "pin the live design to measure it" in view.table.object
+    page = view.report_bytes().getvalue().decode()
+    alone = evaluate_design(state.design_params(), "live")
+    assert f'data-value="{alone.quality["psnr_db"]!r}"' in page and f'data-value="{alone.quality["ssim"]!r}"' in page
