@@ -434,7 +434,7 @@ class CompareView:
         if self._live[0] is res and self._live[1] == self.state.metric:
             return self._live[2]
         try:
-            # without the image-quality measures (75-100 ms on the default scene): the live design keeps its
+            # without the image-quality measures (about 45 ms on the default scene): the live design keeps its
             # speed; a pinned design has them (computed once, in the background)
             live = result_from_pipeline(res, {**self.state.design_params()}, LIVE, self.state.processing(),
                                         quality=False)

@@ -426,7 +426,7 @@ class ExplorerState(param.Parameterized):
         than ``LIMITS.max_chart_values`` are refused with a message, before
         anything is made. Returns whether the chart is offered.
         """
-        from camsim_core.scene.charts import CHART_NAMES, chart, parse_chart
+        from camsim_core.scene.charts import CHART_NAMES, chart, chart_name, parse_chart
 
         text = str(name)
         if text.partition(":")[0].strip().lower() not in CHART_NAMES:
@@ -440,7 +440,7 @@ class ExplorerState(param.Parameterized):
             fixed = sorted(set(opts) & {"wavelengths", "angular_resolution"})
             if fixed:
                 raise ParameterError("chart", f"the explorer's charts keep their {' and '.join(fixed)}")
-            key = base + (":" + ",".join(f"{k}={_option_text(v)}" for k, v in opts.items()) if opts else "")
+            key = chart_name(base, opts)
             scene = None
             if opts and key not in self._uploads:
                 scene = chart(key, max_values=LIMITS.max_chart_values)
@@ -603,13 +603,6 @@ def _range_text(bounds):
     if hi is None:
         return f"[{lo:g}, no upper limit)"
     return f"[{lo:g}, {hi:g}]"
-
-
-def _option_text(value):
-    """A chart option as ``parse_chart`` reads it back (a size pair as HxW)."""
-    if isinstance(value, tuple):
-        return "x".join(str(v) for v in value)
-    return f"{value:g}" if isinstance(value, float) else str(value)
 
 
 def parse_numbers_safe(text):

@@ -161,7 +161,7 @@ def test_the_live_design_skips_the_quality_measures_but_its_report_has_them():
     view.pin("DCS-200")
     state.noise_sigma = 4.0  # the live design now differs from the pinned one
     live = view.live_result()
-    assert live.quality == {}  # on every move: none of their 75-100 ms
+    assert live.quality == {}  # on every move: none of their ~45 ms
     assert "pin the live design to measure it" in view.table.object
     page = view.report_bytes().getvalue().decode()
     alone = evaluate_design(state.design_params(), "live")

@@ -116,3 +116,10 @@ def test_a_chart_too_large_is_refused_before_anything_is_allocated():
     assert MAX_CHART_VALUES == 2048 * 2048 * 31
     with pytest.raises(ParameterError, match="whole numbers"):
         chart("munsell:rows=2.5")
+
+
+@pytest.mark.parametrize("options", [{}, {"angle": 10.5, "contrast": 2}, {"size": (64, 96), "illuminant": "A"}])
+def test_chart_name_is_read_back_by_parse_chart(options):
+    from camsim_core.scene.charts import chart_name, parse_chart
+
+    assert parse_chart(chart_name("slanted-edge", options)) == ("slanted-edge", options)

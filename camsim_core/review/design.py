@@ -372,18 +372,18 @@ def quality_measures(res, monitor):
     images do not allow (an edge too short to fit) is left out.
     """
     from ..metrics.report import default_measures, measure_images
+    from ..metrics.similarity import psnr, ssim
 
-    scene_name = getattr(res.scene, "name", "")
-    out = {}
-    for what in ("similarity",) + tuple(m for m in default_measures(scene_name) if m != "similarity"):
+    # PSNR and SSIM directly: the report's "similarity" also converts both images to XYZ for a mean dE
+    # that the design's own CIELAB measures already hold
+    out = {"psnr_db": psnr(res.rendered, res.ideal), "ssim": ssim(res.rendered, res.ideal)}
+    for what in (m for m in default_measures(getattr(res.scene, "name", "")) if m != "similarity"):
         try:
             m = measure_images((what,), raw=res.raw, demosaiced=res.demosaiced, rendered=res.rendered,
                                ideal=res.ideal, monitor=monitor)
         except CamsimError:
             continue
-        if what == "similarity":
-            out["psnr_db"], out["ssim"] = m["similarity"]["psnr_db"], m["similarity"]["ssim"]
-        elif what == "mtf":
+        if what == "mtf":
             mtf = m["mtf"].get("luminance") or next(iter(m["mtf"].values()))
             out["mtf50"] = mtf["mtf50"]
         elif what == "snr":

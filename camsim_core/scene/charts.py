@@ -19,7 +19,7 @@ from ..spectra import Spectrum, resample
 from .scene import Scene
 from .synthetic import DEFAULT_WAVELENGTHS, _illuminant, scale_to_luminance
 
-__all__ = ["slanted_edge_scene", "zone_plate_scene", "uniform_scene", "munsell_scene", "chart", "parse_chart", "chart_shape", "chart_defaults",
+__all__ = ["slanted_edge_scene", "zone_plate_scene", "uniform_scene", "munsell_scene", "chart", "parse_chart", "chart_name", "chart_shape", "chart_defaults",
            "MAX_CHART_VALUES", "CHART_NAMES",
            "CHART_ANGULAR_RESOLUTION"]
 
@@ -210,6 +210,17 @@ def chart_shape(name, **options):
         step = patch + border
         return border + rows * step, border + cols * step, planes
     return (*_size(o["size"]), planes)
+
+
+def chart_name(name, options):
+    """The name that :func:`parse_chart` reads back as ``(name, options)``: ``"slanted-edge:angle=10,size=64x96"``."""
+
+    def text(v):
+        if isinstance(v, tuple):
+            return "x".join(str(int(p)) for p in v)
+        return f"{v:g}" if isinstance(v, float) else str(v)
+
+    return name + (":" + ",".join(f"{k}={text(v)}" for k, v in options.items()) if options else "")
 
 
 def chart(name, max_values=MAX_CHART_VALUES, **options):
