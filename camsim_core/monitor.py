@@ -173,7 +173,9 @@ def _frame_buffer_tables(monitor, dtype):
     ends = np.minimum(np.nextafter((np.arange(1, _BUCKETS + 2) / _BUCKETS).astype(dtype), dtype.type(0)), dtype.type(1))
     lo = np.stack([np.rint(monitor._settings(starts.astype(np.float64), c) * full) for c in range(3)])
     hi = np.stack([np.rint(monitor._settings(ends.astype(np.float64), c) * full) for c in range(3)])
-    return lo.astype(dtype).ravel(), hi.astype(dtype).ravel()
+    # whole numbers: held in the narrowest unsigned type (an 8-bit monitor's tables fit the CPU's cache)
+    store = np.uint8 if full <= 255 else np.uint16 if full <= 65535 else dtype
+    return lo.astype(store).ravel(), hi.astype(store).ravel()
 
 
 def read_smon(path):
