@@ -30,7 +30,7 @@ from .compare import compare_tab
 from .quality import QualityView
 from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, ExplorerState, Runner
 from .upload import BoundedUpload
-from .views import CameraView, ResultsView, SceneView, when_page_ready
+from .views import CameraView, ResultsView, SceneView, Text, when_page_ready
 
 __all__ = ["create_app", "DEFAULT_SCENE", "configure", "LIVE_STATES", "TABS"]
 
@@ -266,20 +266,27 @@ def _controls(state, results):
     de_scale = w.RadioButtonGroup.from_param(state.param.de_scale, name="dE colours", css_classes=["w-de-scale"],
                                              sizing_mode="stretch_width")
 
+    # notes under controls that can be inert: a changing note is cheap, a changing widget label is not
+    # (Panel rebuilds the widget's style modifiers on the server, ~7 ms, and the browser re-renders it)
+    seed_note = Text("", ["camsim-note", "w-seed-note"], margin=(0, 10), styles={"font-size": "0.85em", "color": "#555"})
+    illum_note = Text("", ["camsim-note", "w-illuminant-note"], margin=(0, 10),
+                      styles={"font-size": "0.85em", "color": "#555"})
+
     def states(*_):
         """Show only the controls that act on the current camera; disable the inert ones, saying why."""
-        alpha.visible = state.camera == "mixture"
-        centers.visible = widths.visible = state.camera.startswith("gaussian")
-        tile.visible = state.mosaic == "custom"
-        skipped = state.result is not None and "demosaic" in getattr(state.result, "skipped", {})
-        demosaic.disabled = skipped
-        demosaic.name = "Demosaicing: not needed (full-colour image)" if skipped else "Demosaicing"
-        illum.disabled = state.render_method != "illuminant"
-        illum.name = ("Illuminant (used by illuminant-based rendering only)" if illum.disabled else
-                      "Illuminant (known, or estimated from the image)")
-        noisy = state.noise_sigma > 0
-        seed.disabled = not noisy
-        seed.name = "Noise seed" if noisy else "Noise seed (no effect without noise)"
+        with pn.io.hold():  # one message to the browser
+            alpha.visible = state.camera == "mixture"
+            centers.visible = widths.visible = state.camera.startswith("gaussian")
+            tile.visible = state.mosaic == "custom"
+            skipped = state.result is not None and "demosaic" in getattr(state.result, "skipped", {})
+            demosaic.disabled = skipped
+            demosaic.name = "Demosaicing: not needed (full-colour image)" if skipped else "Demosaicing"
+            illum.disabled = state.render_method != "illuminant"
+            illum_note.object = ("Used by illuminant-based rendering only" if illum.disabled else
+                                 "Known, or estimated from the image")
+            noisy = state.noise_sigma > 0
+            seed.disabled = not noisy
+            seed_note.object = "Draws the noise pattern" if noisy else "No effect without noise"
 
     state.param.watch(states, ["camera", "mosaic", "result", "render_method", "noise_sigma"])
     states()
@@ -313,9 +320,9 @@ def _controls(state, results):
         pn.Card(scene, chart_options, pn.pane.Markdown("Upload a scene (.npz, .mat, a photo, or a .zip of a .Simg, an ENVI .hdr or "
                                         "band PNGs):", visible=_options["upload"]), upload, title="Scene", **card),
         pn.Card(camera, alpha, centers, widths, mosaic, tile, title="Camera", **card),
-        pn.Card(distance, pn.Row(exposure, auto, sizing_mode="stretch_width"), f_stop, noise, bits, seed,
+        pn.Card(distance, pn.Row(exposure, auto, sizing_mode="stretch_width"), f_stop, noise, bits, seed, seed_note,
                 title="Exposure and noise", **card),
-        pn.Card(demosaic, render, illum, monitor, pn.pane.Markdown("Error metric and dE map colours:"), metric,
+        pn.Card(demosaic, render, illum, illum_note, monitor, pn.pane.Markdown("Error metric and dE map colours:"), metric,
                 de_scale, title="Processing", **card),
         pn.Card(params_down, pn.pane.Markdown("Load parameters (JSON):"), params_up, *downloads,
                 title="Save and share", collapsed=True, **card),
@@ -481,9 +488,11 @@ def create_app(scene=None):
     intro = pn.pane.Markdown(START_HERE, css_classes=["camsim-start"], sizing_mode="stretch_width")
     body = pn.Column(alert, notice, intro, tabs, diagnostics, sizing_mode="stretch_width")
     body.state = state
+    controls = _controls(state, results)
+    _undelayed(controls)
     template = _Template(
         title="camsim explorer: a camera design on a hyperspectral scene",
-        sidebar=[present, *_controls(state, results)],
+        sidebar=[present, *controls],
         main=[body],
         sidebar_width=330,
         busy_indicator=None,  # the result panes show their own state; a header spinner would cost two messages per change
@@ -493,6 +502,15 @@ def create_app(scene=None):
         pn.state.on_session_destroyed(lambda ctx, state=state, page=body, template=template:
                                       _release(state, page, template))
     return template
+
+
+def _undelayed(objects):
+    """Widgets whose changes reach the state at once: Panel holds each change from the browser for 50 ms
+    (to gather a burst into one) before acting on it. A burst costs nothing here (a newer change supersedes
+    the computation of an older one), and 50 ms is a third of the time a slider has to answer."""
+    for obj in objects:
+        for widget in obj.select(pn.widgets.Widget):
+            widget._debounce = 0
 
 
 class _Template(pn.template.BootstrapTemplate):

@@ -203,6 +203,9 @@ class ExplorerState(param.Parameterized):
         self._requests = itertools.count(1)
         self._latest = 0
         self._accepted = None  # parameters of the newest job accepted (computed or being computed)
+        #: ``prepare(result)`` callables run after each computation, in the computing thread (views put their
+        #: display arrays there, so the event loop only hands them to the browser)
+        self.preparers = []
         self.param.watch(self._on_change, [p for p in URL_PARAMETERS if p not in ("wavelength",)])
         if start:
             self.recompute()
@@ -306,6 +309,11 @@ class ExplorerState(param.Parameterized):
                 self.pipeline.start_from(_WARM[name])
             self._first_run = False
             res = self.pipeline.run(job["scene"], job["camera"], job["processing"])
+            for prepare in self.preparers:
+                try:
+                    prepare(res)
+                except Exception:  # the view computes it again when it shows the result, and says why there
+                    pass
             if shipped and res.raw is not None and not res.errors and name not in _WARM:
                 while len(_WARM) >= _WARM_SCENES:
                     _WARM.pop(next(iter(_WARM)), None)

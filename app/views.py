@@ -11,20 +11,21 @@ whole image when its size changes.
 
 from __future__ import annotations
 
-import hashlib
 import html
 import io
 import json
+import zlib
 from functools import partial
 
 import colour
 import numpy as np
 import panel as pn
 from bokeh.events import SelectionGeometry, Tap
-from bokeh.models import (BoxSelectTool, ColumnDataSource, CustomJSHover, DataRange1d, Div, HoverTool,
+from bokeh.models import (BoxSelectTool, ColumnDataSource, CustomJSHover, DataRange1d, HoverTool,
                           LinearColorMapper, Range1d, Span, TapTool)
 from bokeh.palettes import Category10, Greys256, Inferno256
 from bokeh.plotting import figure
+from panel.models.markup import HTML as HTMLModel
 
 from camsim_core.cache import fingerprint
 from camsim_core.simulation import tile_index_map
@@ -132,15 +133,21 @@ _LINEAR_NOTE = (f"Camera values are linear in light; shown as fractions of full 
 
 
 def _normalise(data, full_scale):
-    """Values as fractions of full scale (of the 99.5th percentile without one), display-encoded (``VIEW_GAMMA``)."""
+    """Values as fractions of full scale (of the 99.5th percentile without one), display-encoded (``VIEW_GAMMA``).
+
+    In float32: the screen shows 8 bits, and the power runs several times faster than in float64.
+    """
+    data = np.asarray(data)
     top = full_scale if full_scale else (np.percentile(data, 99.5) or 1.0)
-    return np.clip(np.asarray(data, float) / top, 0, 1) ** (1.0 / VIEW_GAMMA)
+    x = np.multiply(data, np.float32(1.0 / top), dtype=np.float32)
+    np.clip(x, 0, 1, out=x)
+    return np.power(x, np.float32(1.0 / VIEW_GAMMA), out=x)
 
 
 def raw_rgb(image):
     """The raw camera image coloured by sensor: each pixel's value (display-encoded) times its sensor's colour."""
-    colors = sensor_colors(image.sensitivities, image.wavelengths, image.sensor_names)
-    data = np.asarray(image.data, float)
+    colors = sensor_colors(image.sensitivities, image.wavelengths, image.sensor_names).astype(np.float32)
+    data = np.asarray(image.data)
     v = _normalise(data, image.full_scale)
     if image.mosaiced and data.ndim == 2:
         idx = tile_index_map(image.tile, data.shape)
@@ -154,10 +161,10 @@ def raw_rgb(image):
 def planes_rgb(image):
     """Full sensor planes (H, W, K) as a picture: sum of planes times sensor colours, display-encoded."""
     colors = sensor_colors(image.sensitivities, image.wavelengths, image.sensor_names)
-    data = np.asarray(image.data, float)
+    data = np.asarray(image.data)
     if data.ndim == 2:
         data = data[..., None]
-    mixed = data @ (colors / colors.sum(axis=0, keepdims=True).clip(1e-9))
+    mixed = data.astype(np.float32, copy=False) @ (colors / colors.sum(axis=0, keepdims=True).clip(1e-9)).astype(np.float32)
     return _normalise(mixed, image.full_scale)
 
 
@@ -168,11 +175,15 @@ def monitor_rgb(image):
 
 
 def digest(array):
-    """Short content hash of an array (for the status pane and tests)."""
+    """Short content hash of an array (for the status pane and tests): CRC-32 of its bytes, its shape and dtype.
+
+    Tells one result from the next, not an adversary's: CRC-32 runs at memory speed (blake2b took 3.5 ms a
+    rendered image, in every result).
+    """
     if array is None:
         return None
     a = np.ascontiguousarray(np.asarray(getattr(array, "data", array)))
-    return hashlib.blake2b(a.tobytes(), digest_size=6).hexdigest()
+    return f"{zlib.crc32(memoryview(a).cast('B'), zlib.crc32(repr((a.shape, a.dtype.str)).encode())):08x}"
 
 
 def rgba32(rgb):
@@ -185,23 +196,32 @@ def rgba32(rgb):
     rgb = np.asarray(rgb)
     h, w = rgb.shape[:2]
     out = np.empty((h, w, 4), np.uint8)
-    out[..., :3] = rgb if rgb.dtype == np.uint8 else np.clip(np.rint(np.asarray(rgb, float) * 255.0), 0, 255)
+    if rgb.dtype == np.uint8:
+        out[..., :3] = rgb
+    else:  # float32 is exact enough for 8 bits, and twice as fast
+        x = np.multiply(rgb, np.float32(255.0), dtype=np.float32)
+        np.clip(x, 0, 255, out=x)
+        out[..., :3] = np.rint(x, out=x)
     out[..., 3] = 255
     return np.ascontiguousarray(out[::-1]).view(np.uint32)[..., 0]
 
 
 def monitor_u8(image):
     """A rendered image (0..255 monitor settings) as uint8 RGB."""
-    data = np.asarray(getattr(image, "data", image), float)
-    return np.clip(np.rint(data), 0, 255).astype(np.uint8)
+    data = np.asarray(getattr(image, "data", image))
+    x = np.clip(data, 0, 255, dtype=np.float32) if data.dtype.kind == "f" else np.clip(data, 0, 255)
+    return np.rint(x, out=x).astype(np.uint8) if x.dtype.kind == "f" else x.astype(np.uint8)
 
 
-def histogram(values, bins=40):
+def histogram(values, bins=40, p995=None):
     """Counts of finite ``values`` in ``bins`` equal bins from 0 to the 99.5th percentile
-    (at least 1); larger values are counted in the last bin. Returns (edges, counts, top)."""
+    (at least 1); larger values are counted in the last bin. Returns (edges, counts, top).
+    ``p995``: that percentile, when the caller has it already."""
     v = np.asarray(values, float).ravel()
     v = v[np.isfinite(v)]
-    top = float(max(1.0, np.ceil(np.percentile(v, 99.5)))) if v.size else 1.0
+    if p995 is None and v.size:
+        p995 = np.percentile(v, 99.5)
+    top = float(max(1.0, np.ceil(p995))) if v.size else 1.0
     edges = np.linspace(0.0, top, bins + 1)
     counts, _ = np.histogram(np.clip(v, 0, top), edges)
     return edges, counts, top
@@ -274,27 +294,34 @@ def _same_column(old, new):
 
 
 class Text:
-    """A piece of HTML that changes with results: a Bokeh ``Div`` whose ``text`` is set in place.
+    """A piece of HTML that changes with results, set in place on Panel's HTML model.
 
-    Cheaper than a Panel HTML pane for text that changes on every result: the
-    pane re-sends its stylesheets with each change, which makes Bokeh re-walk
-    the whole document's model graph (tens of ms per change) and the browser
-    restyle the page. Use it where a pane would go (``__panel__``).
+    In the browser a new text only replaces the element's inner HTML. A Bokeh
+    ``Div`` re-renders instead and lays out its whole root again (every
+    figure's axes measured: ~80 ms a result at 1366 px, several times per
+    result with the labels); a Panel HTML *pane* re-sends its stylesheets
+    with each change, which makes Bokeh re-walk the whole document's model
+    graph on the server. The model carries the text HTML-escaped, as Panel's
+    own panes send it (the browser decodes it); scripts and TeX are off.
+    Use it where a pane would go (``__panel__``).
     """
 
     def __init__(self, text, css, margin=(2, 5), styles=None, stylesheets=()):
-        self.div = Div(text=text, css_classes=list(css), margin=margin, sizing_mode="stretch_width",
-                       styles=dict(styles or {}), stylesheets=list(stylesheets))
+        self._text = text
+        self.div = HTMLModel(text=html.escape(text), css_classes=list(css), margin=margin,
+                             sizing_mode="stretch_width", styles=dict(styles or {}), stylesheets=list(stylesheets),
+                             run_scripts=False, disable_math=True)
         self.pane = pn.pane.Bokeh(self.div, sizing_mode="stretch_width", margin=0)
 
     @property
     def object(self):
-        return self.div.text
+        return self._text
 
     @object.setter
     def object(self, text):
-        if text != self.div.text:  # an unchanged text sends nothing
-            self.div.text = text
+        if text != self._text:  # an unchanged text sends nothing
+            self._text = text
+            self.div.text = html.escape(text)
 
     @property
     def visible(self):
@@ -395,8 +422,10 @@ class ResultsView:
         self.status = Text("", ["camsim-status"], styles={"font-size": "10px"},
                            stylesheets=["pre { white-space: pre-wrap; word-break: break-all; margin: 0; }"])
         self._busy_shown = False
+        self._computations = 0
         self._memos = {}
         state.param.watch(self._on_state, ["result", "metric", "de_scale", "computing", "message"])
+        state.preparers.append(self.prepare)
         self.update()
 
     # -- pieces -------------------------------------------------------------
@@ -433,6 +462,51 @@ class ResultsView:
         self._shown[key] = obj
         return True
 
+    # display arrays of a result: computed once per step output, in the computing thread when the page runs
+    # one (``prepare``), here otherwise; each is (array(s) to send, numbers shown)
+    def _raw_view(self, raw):
+        data = np.asarray(raw.data)
+        value = (data if data.ndim == 2 else data[..., 0]).astype(np.float32)[::-1]
+        names = list(raw.sensor_names or ())
+        if raw.mosaiced and raw.tile is not None and np.ndim(raw.tile) == 2:
+            sensor = tile_index_map(raw.tile, data.shape[:2]).astype(np.uint8)[::-1]
+        else:  # full colour: every pixel has every sensor; show the first plane's value
+            sensor = np.zeros(data.shape[:2], np.uint8)
+            names = [f"{names[0] if names else '0'} (all {len(names)} at every pixel)"]
+        return dict(image=rgba32(raw_rgb(raw)), value=np.ascontiguousarray(value),
+                    sensor=np.ascontiguousarray(sensor), names=names)
+
+    @staticmethod
+    def _de_view(de):
+        de = np.asarray(de, float)
+        finite = de[np.isfinite(de)]
+        if finite.size:  # one partial sort for the median and the 99.5th percentile (histogram and colour range)
+            median, p995 = (float(q) for q in np.percentile(finite, [50, 99.5]))
+            mean = float(finite.mean())
+        else:
+            median = p995 = mean = float("nan")
+        edges, counts, _ = histogram(finite, p995=p995)
+        return dict(image=np.ascontiguousarray(de[::-1].astype(np.float32)), edges=edges, counts=counts,
+                    data_range=(0.0, max(p995, 0.5)) if finite.size else (0.0, 1.0), mean=mean, median=median)
+
+    def prepare(self, res):
+        """Every display array of a new result (``ExplorerState.preparers``: runs in the computing thread)."""
+        if res is None or res.raw is None:
+            return
+        self._memo("raw_view", res.raw, self._raw_view)
+        if res.demosaiced is not None:
+            self._memo("demosaiced_view", res.demosaiced, lambda img: rgba32(planes_rgb(img)))
+        for key in ("rendered", "ideal"):
+            if getattr(res, key) is not None:
+                self._memo(f"{key}_view", getattr(res, key), lambda img: rgba32(monitor_u8(img)))
+        de, _ = self.error_map(res)
+        if de is not None:
+            self._memo("de_view", de, self._de_view)
+        self._memo("exposure", res.raw, exposure_warnings)
+        self._memo("level", res.raw, mean_level)
+        self._memo("raw_hash", res.raw, digest)
+        self._memo("rendered_hash", res.rendered, digest)
+
     def update(self):
         res = self.state.result
         if res is None or res.raw is None:
@@ -440,44 +514,37 @@ class ResultsView:
         raw = res.raw
         self._resize(raw.data.shape[:2])
         if self._changed("raw", raw):
-            data = np.asarray(raw.data)
-            value = (data if data.ndim == 2 else data[..., 0]).astype(np.float32)[::-1]
-            if raw.mosaiced and raw.tile is not None and np.ndim(raw.tile) == 2:
-                sensor = tile_index_map(raw.tile, data.shape[:2]).astype(np.uint8)[::-1]
-                self.sensor_hover.args = dict(names=list(raw.sensor_names or ()))
-            else:  # full colour: every pixel has every sensor; show the first plane's value
-                sensor = np.zeros(data.shape[:2], np.uint8)
-                names = list(raw.sensor_names or ())
-                self.sensor_hover.args = dict(names=[f"{names[0] if names else '0'} (all {len(names)} at every pixel)"])
-            self._send("raw", rgba32(raw_rgb(raw)), value=[np.ascontiguousarray(value)],
-                       sensor=[np.ascontiguousarray(sensor)])
+            view = self._memo("raw_view", raw, self._raw_view)
+            self.sensor_hover.args = dict(names=view["names"])
+            self._send("raw", view["image"], value=[view["value"]], sensor=[view["sensor"]])
         skipped = "demosaic" in getattr(res, "skipped", {})
         self.labels["demosaiced"].object = ("Demosaicing not needed (full-colour image): the sensor planes"
                                             if skipped else f"<span title='{_LINEAR_NOTE}'>Demosaiced "
                                                            f"({self.state.shown.get('demosaic_method', '')})</span>")
         shape = raw.data.shape[:2]
         if self._changed("demosaiced", res.demosaiced):
-            self._send("demosaiced", rgba32(planes_rgb(res.demosaiced)) if res.demosaiced is not None
-                       else _unavailable(shape))
+            self._send("demosaiced", self._memo("demosaiced_view", res.demosaiced, lambda img: rgba32(planes_rgb(img)))
+                       if res.demosaiced is not None else _unavailable(shape))
         for key in ("rendered", "ideal"):
             img = getattr(res, key)
             if self._changed(key, img):
-                self._send(key, rgba32(monitor_u8(img)) if img is not None else _unavailable(shape))
+                self._send(key, self._memo(f"{key}_view", img, lambda im: rgba32(monitor_u8(im)))
+                           if img is not None else _unavailable(shape))
             self.labels[key].object = self.TITLES[key] + ("" if img is not None else " (not available)")
         de, label = self.error_map(res)
         mean = med = None
         if de is not None:
-            de = np.asarray(de, float)
-            lo, hi = de_range(de, self.state.de_scale)
+            view = self._memo("de_view", de, self._de_view)
+            lo, hi = view["data_range"] if self.state.de_scale == "data" else DE_RANGE
             self.colour_bar.set(lo, hi)
             if self._changed("de", de):
-                self._send("de", np.ascontiguousarray(de[::-1].astype(np.float32)))
-                edges, counts, top = histogram(de)
+                self._send("de", view["image"])
+                edges, counts = view["edges"], view["counts"]
                 self.hist_source.data = dict(left=edges[:-1], right=edges[1:], top=counts)
                 # ranges set here, not left to the browser (which would send them back to the server)
                 self.hist_figure.x_range.update(start=0, end=float(edges[-1]))
                 self.hist_figure.y_range.update(start=0, end=1.05 * max(float(np.max(counts)), 1.0))
-            mean, med = float(np.nanmean(de)), float(np.nanmedian(de))
+            mean, med = view["mean"], view["median"]
             self.mean_span.location, self.median_span.location = mean, med
             scale = "colours 0 to 99.5th pct" if self.state.de_scale == "data" else "fixed colours 0-20"
             self.labels["de"].object = (f"<span title='0 = identical to the ideal image; the colour scale is set "
@@ -500,15 +567,18 @@ class ResultsView:
         panes busy (each mark makes the browser lay the page out again).
         """
         names = {e.name for e in events}
+        if "computing" in names:
+            self._computations += 1  # each start and end; a timer of an earlier computation marks nothing
         if names & {"result", "metric", "de_scale"}:
             self.update()
         elif self.state.computing and not self._busy_shown and names == {"computing"}:
-            _after(BUSY_DELAY_MS, self._busy_if_still_computing)
+            _after(BUSY_DELAY_MS, partial(self._busy_if_still_computing, self._computations))
         else:
             self.show_computing()
 
-    def _busy_if_still_computing(self):
-        if self.state.computing:
+    def _busy_if_still_computing(self, computation):
+        """Mark the panes busy if the computation that started the timer is still the one running."""
+        if self.state.computing and computation == self._computations:
             self.show_computing()
 
     def _memo(self, name, obj, fn):
