@@ -43,6 +43,9 @@ _SCENE_RGB = {}
 
 #: A computation still running after this long marks the result panes as busy (ms).
 BUSY_DELAY_MS = 250
+#: The image frames keep their shape while the image's aspect ratio stays within this factor of theirs
+#: (a distance change, which keeps the scene's aspect until the sensor crops it).
+ASPECT_TOLERANCE = 1.1
 
 
 def _after(ms, fn):
@@ -369,6 +372,7 @@ class ResultsView:
         self.state = state
         self.shape = (233, 372)
         h, w = self.shape
+        self.frame_aspect = w / h
         self.x_range, self.y_range = Range1d(0, w), Range1d(0, h)
         blank = np.zeros(self.shape, np.uint32)
         self.sources, self.figures, self.labels, self.panes = {}, {}, {}, {}
@@ -430,10 +434,21 @@ class ResultsView:
 
     # -- pieces -------------------------------------------------------------
     def fit(self):
-        """Show the whole image in every view (after a change of size, or on request)."""
+        """Show the whole image in every view (after a change of size, or on request), centred.
+
+        The frames keep their aspect ratio (``frame_aspect``) while the image's
+        stays within ``ASPECT_TOLERANCE`` of it: the image then fills the
+        frame's width or height, with a margin of at most 10 % on the other.
+        """
         h, w = self.shape
-        self.x_range.update(start=0, end=w)
-        self.y_range.update(start=0, end=h)
+        if w / h >= self.frame_aspect:  # as wide or wider: full width
+            extra = w / self.frame_aspect - h
+            self.x_range.update(start=0, end=w)
+            self.y_range.update(start=-extra / 2, end=h + extra / 2)
+        else:
+            extra = h * self.frame_aspect - w
+            self.x_range.update(start=-extra / 2, end=w + extra / 2)
+            self.y_range.update(start=0, end=h)
 
     def _send(self, key, image, **extra):
         """Replace an image view's data; only the columns that changed go to the browser."""
@@ -448,11 +463,16 @@ class ResultsView:
             src.data.update(changed)
 
     def _resize(self, shape):
+        """A new image size: refit the views; reshape the frames only for a clearly different aspect ratio
+        (each frame's new shape makes the browser lay the whole page out again, ~60 ms a frame)."""
         if tuple(shape) == self.shape:
             return
         self.shape = tuple(shape)
-        for fig in self.figures.values():
-            fig.aspect_ratio = shape[1] / shape[0]
+        aspect = shape[1] / shape[0]
+        if max(aspect / self.frame_aspect, self.frame_aspect / aspect) > ASPECT_TOLERANCE:
+            self.frame_aspect = aspect
+            for fig in self.figures.values():
+                fig.aspect_ratio = aspect
         self.fit()
 
     def _changed(self, key, obj):

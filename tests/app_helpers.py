@@ -182,6 +182,16 @@ FIGURES_JS = """() => {
 }"""
 
 
+def shows_whole_image(fig, w, h, margin=0.1):
+    """A figure's ranges show the whole w x h image, filling one dimension exactly and the other
+    within ``margin`` (centred, as a frame of another aspect ratio shows it)."""
+    (x0, x1), (y0, y1) = fig["x"], fig["y"]
+    covers = x0 <= 0 and x1 >= w and y0 <= 0 and y1 >= h
+    fills = ([x0, x1] == [0, w] and y1 - y0 <= (1 + margin) * h) or ([y0, y1] == [0, h] and x1 - x0 <= (1 + margin) * w)
+    centred = abs((x0 + x1) - w) < 1e-6 * w and abs((y0 + y1) - h) < 1e-6 * h
+    return covers and fills and centred
+
+
 def figures(page):
     return page.page.evaluate(FIGURES_JS)
 

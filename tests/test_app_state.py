@@ -329,6 +329,30 @@ def test_auto_exposure_says_what_it_aims_at(state):
     assert "90 % of full scale" in state.notice and "brightest 0.5 %" in state.notice
 
 
+def test_views_refit_to_a_new_image_size_and_reshape_only_for_a_new_aspect_ratio(state):
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from app_helpers import shows_whole_image
+
+    view = ResultsView(state)
+    start = [fig.aspect_ratio for fig in view.figures.values()]
+
+    def ranges():
+        return {"x": [view.x_range.start, view.x_range.end], "y": [view.y_range.start, view.y_range.end]}
+
+    state.distance = 0.5  # the sensor crops the scene: 1012 x 1524, aspect 1.506 against the frames' 1.597
+    h, w = state.result.raw.data.shape[:2]
+    assert (h, w) == (1012, 1524)
+    assert [fig.aspect_ratio for fig in view.figures.values()] == start  # no relayout of the page
+    assert shows_whole_image(ranges(), w, h) and ranges()["y"] == [0, h] and ranges()["x"][0] < 0
+    state.scene = "bfgb128"  # a square scene: the frames take its shape
+    h, w = state.result.raw.data.shape[:2]
+    assert all(fig.aspect_ratio == pytest.approx(w / h) for fig in view.figures.values())
+    assert ranges() == {"x": [0, w], "y": [0, h]}
+
+
 def test_rgba32_packs_bytes_for_bokeh_bottom_row_first():
     rgb = np.zeros((2, 3, 3), np.uint8)
     rgb[0, 0] = (10, 20, 30)  # top-left pixel
