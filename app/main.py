@@ -74,6 +74,18 @@ logging.getLogger("bokeh.server.views.ws").addFilter(_ClosedTabFilter())
 silence(FIXED_SIZING_MODE, True)
 
 
+def _pages_without_mathjax():
+    """Pages load without Bokeh's MathJax bundle (1.8 MB of script to fetch and compile on every first
+    visit). Panel adds it whenever a page holds an HTML or Markdown pane, in case one shows TeX; no text of
+    the explorer does (its panes run with TeX off), so nothing is lost."""
+    import panel.io.resources as resources
+
+    resources._panel_use_mathjax = lambda roots: False
+
+
+_pages_without_mathjax()
+
+
 def configure(scene=None, *, limits=None, upload=True):
     """Set what new sessions get (``camsim serve``): the scene they open on, the limits, whether uploads are offered."""
     _options["scene"] = scene

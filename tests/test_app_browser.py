@@ -69,6 +69,9 @@ def test_page_loads_without_console_errors(page):
     assert s["mean_de"] > 0 and s["median_de"] > 0
     assert page.alert_text() == ""
     assert "mean dE" in page.text(".camsim-stats")
+    scripts = page.page.evaluate("performance.getEntriesByType('resource').map(r => r.name)")
+    assert any("bokeh.min.js" in name for name in scripts)  # the list is the page's resources
+    assert not [name for name in scripts if "mathjax" in name.lower()]  # 1.8 MB the page does not need
 
 
 def test_raising_noise_raises_the_mean_de_shown(page):
