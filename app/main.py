@@ -251,6 +251,7 @@ def _controls(state, results):
                                      css_classes=["w-centers"], sizing_mode="stretch_width")
     widths = w.TextInput.from_param(state.param.gaussian_widths, name="Gaussian widths (nm)",
                                     css_classes=["w-widths"], sizing_mode="stretch_width")
+    optics = _select(state, "optics", "w-optics", "Optics: none, or diffraction-limited blur at the f-number")
     mosaic = _select(state, "mosaic", "w-mosaic", "Mosaic")
     tile = w.TextInput.from_param(state.param.custom_tile, name="Custom tile (0-based; rows split by ';')",
                                   css_classes=["w-tile"], sizing_mode="stretch_width")
@@ -258,6 +259,8 @@ def _controls(state, results):
     distance = _number(w.EditableFloatSlider, state, "distance", "w-distance", "Distance (m)",
                        start=0.5, end=10.0, step=0.01)
     exposure = _number(w.FloatInput, state, "exposure", "w-exposure", "Exposure (s)", step=0.005, format="0.0000")
+    light = _number(w.FloatInput, state, "light", "w-light", "Light level (x the scene's own, 0.001-1000)", step=0.1,
+                    format="0.000")
     auto = w.Button(name="Auto exposure", css_classes=["w-auto"], button_type="primary", width=120,
                     description="Exposure putting the scene's brightest 0.5 % at 90 % of full scale")
     auto.on_click(lambda e: state.auto_expose())
@@ -330,8 +333,8 @@ def _controls(state, results):
     card = dict(sizing_mode="stretch_width", margin=(4, 0))
     return [
         pn.Card(scene, chart_options, pn.pane.Markdown("Upload a scene (.npz, .mat, a photo, or a .zip of a .Simg, an ENVI .hdr or "
-                                        "band PNGs):", visible=_options["upload"]), upload, title="Scene", **card),
-        pn.Card(camera, alpha, centers, widths, mosaic, tile, title="Camera", **card),
+                                        "band PNGs):", visible=_options["upload"]), upload, light, title="Scene", **card),
+        pn.Card(camera, alpha, centers, widths, optics, mosaic, tile, title="Camera", **card),
         pn.Card(distance, pn.Row(exposure, auto, sizing_mode="stretch_width"), f_stop, noise, bits, seed, seed_note,
                 title="Exposure and noise", **card),
         pn.Card(demosaic, render, illum, illum_note, monitor, pn.pane.Markdown("Error metric and dE map colours:"), metric,

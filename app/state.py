@@ -36,8 +36,9 @@ from camsim_core.io.upload import UploadLimits
 from camsim_core.io.upload import load_upload as _engine_load_upload
 from camsim_core.review import design as _design
 from camsim_core.review.design import (CAMERA_CHOICES, GAUSSIAN_DEFAULTS, ILLUMINANT_CHOICES, METRIC_CHOICES,
-                                       MOSAIC_CHOICES, RENDER_CHOICES, camera_from_params, check_pinned,
-                                       processing_from_params)
+                                       MOSAIC_CHOICES, OPTICS_CHOICES, RENDER_CHOICES, camera_from_params,
+                                       check_pinned, processing_from_params)
+from camsim_core.scene import scale_light
 from camsim_core.review.sweep import check_sweep
 
 __all__ = ["ExplorerState", "Runner", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_PARAMETERS", "COMPARE_PARAMETERS",
@@ -49,7 +50,7 @@ BITS_CHOICES = {"8": 8, "10": 10, "12": 12, "16": 16, "unquantized": 0}
 
 #: The parameters a URL carries (name in the URL = parameter name).
 URL_PARAMETERS = (
-    "scene", "camera", "alpha", "gaussian_centers", "gaussian_widths", "mosaic", "custom_tile",
+    "scene", "light", "camera", "alpha", "gaussian_centers", "gaussian_widths", "optics", "mosaic", "custom_tile",
     "distance", "exposure", "f_stop", "noise_sigma", "bits", "seed",
     "demosaic_method", "render_method", "illuminant", "monitor", "metric", "viewing", "wavelength",
 )
@@ -156,11 +157,15 @@ class ExplorerState(param.Parameterized):
     # scene
     scene = param.Selector(default="cacaphony290", objects=list(cc.SCENE_NAMES), doc="Shipped scene, or an uploaded one")
     wavelength = param.Number(default=550.0, doc="Wavelength (nm) of the plane shown in the scene view")
+    light = param.Number(default=1.0, bounds=(1e-3, 1e3), step=0.1,
+                         doc="Light level: a factor of the scene's own (radiance and illuminant scaled)")
     # camera
     camera = param.Selector(default="kodak-dcs200-ir", objects=list(CAMERA_CHOICES), doc="Camera preset")
     alpha = param.Number(default=0.5, bounds=(0.0, 1.0), step=0.1, doc="Mixture: (1 - alpha) cones + alpha DCS-200")
     gaussian_centers = param.String(default="640, 520, 460", doc="Gaussian sensor centres, nm")
     gaussian_widths = param.String(default="27", doc="Gaussian standard deviations, nm (one or one per sensor)")
+    optics = param.Selector(default="none", objects=list(OPTICS_CHOICES),
+                            doc="The lens: none, or diffraction-limited blur at the f-number (per wavelength)")
     mosaic = param.Selector(default="preset", objects=list(MOSAIC_CHOICES), doc="Mosaic layout")
     custom_tile = param.String(default="1 0; 2 1", doc="Custom tile: 0-based sensor indices, rows separated by ';'")
     distance = param.Number(default=3.32, bounds=(0.5, 20.0), step=0.01, doc="Camera to scene, m")
@@ -199,6 +204,7 @@ class ExplorerState(param.Parameterized):
         self._first_run = True
         self.runner = runner
         self._uploads = {}
+        self._lit = None  # (scene, light level, the scene under that light)
         self._updating = False
         self._requests = itertools.count(1)
         self._latest = 0
@@ -216,10 +222,18 @@ class ExplorerState(param.Parameterized):
 
     # -- building engine objects ------------------------------------------
     def scene_object(self):
-        """The Scene: a shipped one (shared, read-only) or this session's upload."""
-        if self.scene in self._uploads:
-            return self._uploads[self.scene]
-        return cc.load_scene(self.scene)
+        """The Scene: a shipped one (shared, read-only) or this session's upload, under the light level.
+
+        The scene at a light level other than its own is kept (one at a time): the same object on
+        every change, so the pipeline re-runs only what a change touches.
+        """
+        scene = self._uploads[self.scene] if self.scene in self._uploads else cc.load_scene(self.scene)
+        if self.light == 1.0:
+            return scene
+        held = self._lit
+        if held is None or held[0] is not scene or held[1] != self.light:
+            held = self._lit = (scene, self.light, scale_light(scene, self.light))
+        return held[2]
 
     def design_params(self):
         """The live design's parameters (the explorer's own, as plain JSON values)."""
@@ -603,7 +617,7 @@ def mean_level(raw):
 
 
 _LABELS = {"noise_sigma": "noise sigma", "f_stop": "f-stop", "exposure": "exposure (s)", "distance": "distance (m)",
-           "seed": "seed", "alpha": "alpha", "bits": "bits"}
+           "seed": "seed", "alpha": "alpha", "bits": "bits", "light": "light level (x the scene's)"}
 
 
 def _range_text(bounds):

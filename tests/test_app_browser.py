@@ -281,6 +281,7 @@ def test_a_change_during_a_long_computation_ends_with_the_last_change(page):
     ("w-fstop", 40, "f-stop", "11"),
     ("w-distance", -1, "distance", "3.32"),
     ("w-seed", -5, "seed", "0"),
+    ("w-light", 5000, "light level", "1"),
 ])
 def test_a_refused_value_gets_a_message_and_the_widget_returns(page, css, value, name, kept):
     if css == "w-seed":  # the seed acts (and is enabled) only with noise
@@ -387,3 +388,15 @@ def test_chart_options_make_the_chart_a_link_reproduces_and_bad_ones_are_refused
     assert "more than the" in page.alert_text()
     assert options.input_value() == "angle=10,contrast=2,size=96"  # the box shows the chart in use again
     assert page.params()["scene"] == chosen["params"]["scene"]
+
+
+def test_light_level_and_diffraction_optics_from_the_sidebar(page):
+    before = page.status()
+    page.type_number("w-light", 0.25)
+    dim = page.wait_for(lambda s: s["params"]["light"] == 0.25 and not s["computing"])
+    assert dim["raw_hash"] != before["raw_hash"] and dim["ran"][0][0] == "stage:sensor_responses"
+    assert "mean level 6 %" in page.text(".camsim-warnings")  # a quarter of the default's 25 %
+    page.select("w-optics", "diffraction")
+    blurred = page.wait_for(lambda s: s["params"]["optics"] == "diffraction" and not s["computing"])
+    assert blurred["ran"][0][0] == "stage:optics" and blurred["raw_hash"] != dim["raw_hash"]
+    assert page.alert_text() == "" and page.errors() == []

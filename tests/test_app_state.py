@@ -266,7 +266,7 @@ def test_a_change_during_a_computation_supersedes_it():
 
 @pytest.mark.parametrize("name, value, words", [
     ("noise_sigma", 80, "noise sigma 80"), ("exposure", 100, "exposure (s) 100"), ("f_stop", 40, "f-stop 40"),
-    ("distance", -1, "distance (m) -1"), ("seed", -5, "seed -5"),
+    ("distance", -1, "distance (m) -1"), ("seed", -5, "seed -5"), ("light", 5000, "light level (x the scene's) 5000"),
 ])
 def test_an_out_of_range_value_is_refused_with_a_message(state, name, value, words):
     before, good = getattr(state, name), state.result
@@ -434,3 +434,28 @@ def test_chart_options_need_a_chart_and_files_name_only_real_scenes():
     assert not state.set_chart("angle=10") and "apply to a test chart" in state.message
     assert not state.from_json(json.dumps({"scene": "upload:elsewhere"}))
     assert "neither one of this session's scenes nor a chart" in state.message and state.scene == "cacaphony290"
+
+
+def test_light_level_scales_the_raw_and_a_later_move_reruns_only_its_own_steps(state):
+    base = np.asarray(state.result.raw.data, float)  # 8 bits, no noise: the raw's mean is linear in the light
+    state.light = 0.5
+    ran = [name for name, _ in state.result.ran]
+    assert ran[0] == "stage:sensor_responses" and state.result.params["light"] == 0.5
+    dim = np.asarray(state.result.raw.data, float)
+    assert dim.mean() == pytest.approx(base.mean() / 2, rel=0.01)  # rounding to whole digital values only
+    state.noise_sigma = 1.0  # the scene under the new light is the same object: the sensor responses are kept
+    assert [name for name, _ in state.result.ran][0] == "stage:noise"
+
+
+def test_diffraction_optics_from_the_explorer_blurs_the_raw(state):
+    sharp = np.asarray(state.result.raw.data, float)
+    state.f_stop = 32.0  # the smallest aperture offered: the widest diffraction blur
+    sharp = np.asarray(state.result.raw.data, float)
+    state.optics = "diffraction"
+    assert state.result.camera.optics == "diffraction" and "stage:optics" in [n for n, _ in state.result.ran]
+    blurred = np.asarray(state.result.raw.data, float)
+
+    def detail(a):  # energy of the differences between neighbours of the same sensor (a 2 x 2 tile apart)
+        return float(np.mean(np.abs(np.diff(a[:, ::2], axis=1))))
+
+    assert detail(blurred) < detail(sharp)

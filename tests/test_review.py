@@ -243,3 +243,17 @@ def test_sweeps_leave_the_quality_measures_out_and_tables_show_them(dcs, monkeyp
     page = report_html([chart, dcs])
     assert "Macbeth chart, mean CIEDE2000" in page and f"{chart.quality['macbeth_de2000']:.2f}" in page
     assert page.count("<td>n/a</td>") >= 1  # the photo allows no chart measure
+
+
+def test_a_design_carries_optics_and_a_light_level():
+    from camsim_core.review.design import check_params, scene_from_params
+
+    cam = camera_from_params({"optics": "diffraction"})
+    assert cam.optics == "diffraction" and camera_from_params({}).optics == "none"
+    base = scene_from_params({})
+    lit = scene_from_params({"light": 2.0})
+    np.testing.assert_allclose(lit.data, 2.0 * base.data)
+    with pytest.raises(ParameterError, match="optics"):
+        check_params({"optics": "pinhole"})
+    with pytest.raises(ParameterError, match="light"):
+        check_params({"light": 0.0})

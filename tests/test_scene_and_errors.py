@@ -169,3 +169,35 @@ def test_cli_info(capsys):
     assert main(["info", "cacaphony290"]) == 0
     assert json.loads(capsys.readouterr().out)["size_px"] == "182 x 290"
     assert main(["info", "nothing-here"]) == 2
+
+
+def test_scale_light_scales_radiance_and_illuminant_and_keeps_reflectance():
+    from camsim_core.scene import scale_light
+
+    scene = cs.load_scene("cacaphony290")
+    assert scale_light(scene, 1.0) is scene
+    dim = scale_light(scene, 0.25)
+    assert dim.data.dtype == scene.data.dtype and dim.data.shape == scene.data.shape
+    np.testing.assert_allclose(dim.data, 0.25 * scene.data, rtol=1e-12)
+    np.testing.assert_allclose(dim.illuminant.values, 0.25 * scene.illuminant.values, rtol=1e-12)
+    # reflectance (radiance over illuminant, per band) is the scene's own
+    def reflectance(sc):  # radiance over the illuminant at the scene's wavelengths
+        e = np.interp(sc.wavelengths, sc.illuminant.wavelengths, sc.illuminant.values)
+        return sc.data / e
+
+    np.testing.assert_allclose(reflectance(dim), reflectance(scene), rtol=1e-12)
+    f32 = Scene(scene.data.astype(np.float32), scene.wavelengths)
+    assert scale_light(f32, 3.0).data.dtype == np.float32
+    for bad in (0.0, -1.0, float("nan"), 1e9):
+        with pytest.raises(cs.CamsimError, match="light"):
+            scale_light(scene, bad)
+
+
+def test_a_camera_responds_linearly_to_the_light_level():
+    from camsim_core.scene import scale_light
+
+    scene = cs.load_scene("cacaphony290")
+    cam = cs.load_camera("kodak-dcs200-ir").replace(bits=None, noise_sigma=0.0)
+    one = np.asarray(cs.simulate(scene, cam).data, float)
+    three = np.asarray(cs.simulate(scale_light(scene, 3.0), cam).data, float)
+    np.testing.assert_allclose(three, 3.0 * one, rtol=1e-9, atol=1e-9)

@@ -74,6 +74,8 @@ MOSAIC_CHOICES = ("preset",) + _bayer_names() + ("4-sensor grid", "none", "custo
 RENDER_CHOICES = ("baseline", "illuminant")
 ILLUMINANT_CHOICES = ("known", "gray-world", "max-rgb")
 METRIC_CHOICES = ("CIELAB", "S-CIELAB")
+#: The lens: none (the chapter's five-stage camera) or diffraction-limited blur at the f-number.
+OPTICS_CHOICES = ("none", "diffraction")
 #: Centres (nm) and widths (nm) a Gaussian preset starts from.
 GAUSSIAN_DEFAULTS = {"gaussian-3": ("640, 520, 460", "27"), "gaussian-4": ("460, 520, 580, 640", "27")}
 
@@ -81,10 +83,12 @@ GAUSSIAN_DEFAULTS = {"gaussian-3": ("640, 520, 460", "27"), "gaussian-4": ("460,
 #: the chapter's real-versus-simulated setting (Cacaphony through a DCS-200 at 3.32 m, 0.1 s, f/11).
 DESIGN_PARAMETERS = {
     "scene": ("cacaphony290", "scene", None),
+    "light": (1.0, "number", (1e-3, 1e3)),
     "camera": ("kodak-dcs200-ir", "choice", CAMERA_CHOICES),
     "alpha": (0.5, "number", (0.0, 1.0)),
     "gaussian_centers": ("640, 520, 460", "text", None),
     "gaussian_widths": ("27", "text", None),
+    "optics": ("none", "choice", OPTICS_CHOICES),
     "mosaic": ("preset", "choice", MOSAIC_CHOICES),
     "custom_tile": ("1 0; 2 1", "text", None),
     "distance": (3.32, "number", (0.5, 20.0)),
@@ -103,7 +107,7 @@ DESIGN_PARAMETERS = {
 }
 DESIGN_DEFAULTS = {k: v[0] for k, v in DESIGN_PARAMETERS.items()}
 #: Parameters a comparison shares between its designs (not stored with a pinned design).
-_SHARED = ("scene", "wavelength", "metric", "viewing")
+_SHARED = ("scene", "light", "wavelength", "metric", "viewing")
 #: Pinned designs in one comparison.
 MAX_PINNED = 4
 
@@ -263,6 +267,7 @@ def camera_from_params(params, *, max_sensors=MAX_SENSORS, max_tile=MAX_TILE, ma
         noise_mean=0.0,
         bits=int(p["bits"]) or None,
         seed=int(p["seed"]),
+        optics=str(p["optics"]),
     )
     return cam.replace(**changes)
 
@@ -287,10 +292,12 @@ def processing_from_params(params, metrics=None):
 
 
 def scene_from_params(params):
-    """The design's Scene: a shipped one (shared, read-only) or a file path."""
-    from ..scene import load_scene
+    """The design's Scene: a shipped one (shared, read-only) or a file path, under the design's ``light``
+    (a factor of the scene's own light level)."""
+    from ..scene import load_scene, scale_light
 
-    return load_scene(dict(DESIGN_DEFAULTS, **params)["scene"])
+    p = dict(DESIGN_DEFAULTS, **params)
+    return scale_light(load_scene(p["scene"]), p["light"])
 
 
 def measures(values):

@@ -10,7 +10,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..spectra import Spectrum
 
-__all__ = ["Scene", "check_radiance", "radiance_dtype"]
+__all__ = ["Scene", "check_radiance", "radiance_dtype", "scale_light"]
 
 
 def radiance_dtype(data):
@@ -136,3 +136,30 @@ class Scene:
             "comments": self.comments,
             "notices": list(self.notices),
         }
+
+
+#: Light levels :func:`scale_light` accepts, as factors of the scene's own.
+LIGHT_RANGE = (1e-4, 1e4)
+
+
+def scale_light(scene, factor):
+    """The scene under ``factor`` times its light: radiance and illuminant scaled, reflectances unchanged.
+
+    A dimmer or brighter version of the same scene (a dusk or a sunlit
+    version of a room): what matters to a sensor that counts photons, whose
+    shot noise, read noise and dark current do not scale with the light.
+    ``factor`` is dimensionless, in ``LIGHT_RANGE``; 1 returns ``scene``
+    itself. The radiance keeps its dtype.
+    """
+    import dataclasses
+
+    f = float(factor)
+    if not (np.isfinite(f) and LIGHT_RANGE[0] <= f <= LIGHT_RANGE[1]):
+        raise ParameterError("light", f"must be a factor in [{LIGHT_RANGE[0]:g}, {LIGHT_RANGE[1]:g}], got {factor!r}")
+    if f == 1.0:
+        return scene
+    illuminant = scene.illuminant
+    if illuminant is not None:
+        illuminant = Spectrum(illuminant.wavelengths, illuminant.values * f, illuminant.name)
+    data = scene.data * scene.data.dtype.type(f)
+    return dataclasses.replace(scene, data=data, illuminant=illuminant, name=f"{scene.name} x{f:g} light")
