@@ -149,6 +149,8 @@ def _release(state, page, template=None):
                     pass
     state.pipeline = None
     state._uploads.clear()
+    state._lit = None
+    state.preparers.clear()  # the views' display-array makers (and through them, the views' arrays)
     with param_discard(state):
         state.result = None
     page.objects = []

@@ -15,7 +15,7 @@ def test_release_drops_the_sessions_arrays_and_watchers(tmp_path):
     watched = sum(len(w) for group in state.param.watchers.values() for w in group.values())
     assert watched > 0
     _release(state, page)
-    assert state.pipeline is None and state.result is None and not state._uploads
+    assert state.pipeline is None and state.result is None and not state._uploads and not state.preparers
     assert sum(len(w) for group in state.param.watchers.values() for w in group.values()) == 0
     assert page.state is None and len(page.objects) == 0
     # a change after release reaches nothing (no watcher left to recompute)
