@@ -44,6 +44,8 @@ from camsim_core.review.difference import ab_difference
 from camsim_core.review.report import DESIGN_COLOURS, quality_cell, report_html, shared_scale
 from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
 
+from .views import once
+
 hv.Store.set_current_backend("bokeh")
 
 __all__ = ["CompareView", "DesignStore", "compare_tab"]
@@ -407,7 +409,7 @@ class CompareView:
             fn()
             return
         try:
-            doc.add_next_tick_callback(fn)
+            doc.add_next_tick_callback(once(fn))  # designs' arrays not kept by the callback once shown
         except Exception:  # the session closed while a worker thread was computing: nothing to show
             if self._sweep_cancel is not None:
                 self._sweep_cancel.set()

@@ -9,13 +9,13 @@ one panel per rendering method, one curve per noise level.
 from __future__ import annotations
 
 import threading
-from functools import partial
-
 import holoviews as hv
 import holoviews.plotting.bokeh  # noqa: F401  (the bokeh backend, for .opts)
 import panel as pn
 
 from camsim_core.errors import CamsimError
+
+from .views import once
 
 hv.Store.set_current_backend("bokeh")
 
@@ -87,7 +87,7 @@ class ExperimentsView:
         except Exception as exc:  # never a dead page
             outcome = (None, f"**Failed:** {type(exc).__name__}: {exc}")
         if doc is not None and doc.session_context is not None:
-            doc.add_next_tick_callback(partial(self._show, *outcome))
+            doc.add_next_tick_callback(once(self._show, *outcome))  # records not kept by the callback once shown
         else:
             self._show(*outcome)
 

@@ -30,7 +30,7 @@ from .compare import compare_tab
 from .quality import QualityView
 from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, ExplorerState, Runner
 from .upload import BoundedUpload
-from .views import CameraView, ResultsView, SceneView, Text, when_page_ready
+from .views import CameraView, ResultsView, SceneView, Text, once, when_page_ready
 
 __all__ = ["create_app", "DEFAULT_SCENE", "configure", "LIVE_STATES", "TABS"]
 
@@ -444,10 +444,11 @@ def _go_background(state):
             state._apply(job, outcome)
 
     def deliver(job, outcome):
+        show = once(apply, job, outcome)  # not held by Bokeh's callback after it ran (see ``once``)
         try:
-            doc.add_next_tick_callback(partial(when_page_ready, partial(apply, job, outcome)))
+            doc.add_next_tick_callback(partial(when_page_ready, show))
         except Exception:  # the session has closed: nothing to show
-            pass
+            show.drop()
 
     state.set_runner(Runner(state._compute, deliver))
     state.defer = _later

@@ -57,6 +57,26 @@ def _after(ms, fn):
         fn()
 
 
+def once(fn, *args):
+    """``fn(*args)`` as a callable that runs once and then lets go of ``fn`` and ``args``.
+
+    For callbacks handed to Bokeh's event loop: its one-shot callbacks sit in
+    reference cycles (each refers to itself) that only a full garbage
+    collection frees, which a busy server runs rarely; a result held by one
+    stayed in memory until then (+0.6 MB a change in a 200-change soak).
+    """
+    parcel = [fn, args]
+
+    def call():
+        if parcel:
+            f, a = parcel
+            parcel.clear()
+            return f(*a)
+
+    call.drop = parcel.clear  # for a callback that will never run (the session closed)
+    return call
+
+
 def when_page_ready(fn):
     """Call ``fn`` now if this session's page has reported that it is rendered, else as soon as it does.
 

@@ -459,3 +459,28 @@ def test_diffraction_optics_from_the_explorer_blurs_the_raw(state):
         return float(np.mean(np.abs(np.diff(a[:, ::2], axis=1))))
 
     assert detail(blurred) < detail(sharp)
+
+
+def test_a_callback_for_the_event_loop_runs_once_and_lets_go_of_its_arguments():
+    import gc
+    import weakref
+
+    from app.views import once
+
+    class Big:  # stands for a result's arrays
+        pass
+
+    calls = []
+    big = Big()
+    ref = weakref.ref(big)
+    call = once(lambda x: calls.append(x) or "shown", big)
+    cycle = [call]
+    cycle.append(cycle)  # like Bokeh's one-shot callbacks: held in a reference cycle after running
+    del big
+    assert call() == "shown" and call() is None and len(calls) == 1
+    calls.clear()
+    assert ref() is None  # freed at once, not at the next full garbage collection
+    never = once(lambda x: None, Big())
+    never.drop()  # a session closed before its callback ran
+    assert never() is None
+    gc.collect()
