@@ -253,7 +253,7 @@ def _controls(state, results):
                                      css_classes=["w-centers"], sizing_mode="stretch_width")
     widths = w.TextInput.from_param(state.param.gaussian_widths, name="Gaussian widths (nm)",
                                     css_classes=["w-widths"], sizing_mode="stretch_width")
-    optics = _select(state, "optics", "w-optics", "Optics: none, or diffraction-limited blur at the f-number")
+    optics = _select(state, "optics", "w-optics", "Optics (diffraction: blur at the f-number)")
     mosaic = _select(state, "mosaic", "w-mosaic", "Mosaic")
     tile = w.TextInput.from_param(state.param.custom_tile, name="Custom tile (0-based; rows split by ';')",
                                   css_classes=["w-tile"], sizing_mode="stretch_width")
