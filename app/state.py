@@ -228,8 +228,6 @@ class ExplorerState(param.Parameterized):
         every change, so the pipeline re-runs only what a change touches.
         """
         scene = self._uploads[self.scene] if self.scene in self._uploads else cc.load_scene(self.scene)
-        if self.light == 1.0:
-            return scene
         held = self._lit
         if held is None or held[0] is not scene or held[1] != self.light:
             held = self._lit = (scene, self.light, scale_light(scene, self.light))

@@ -232,8 +232,20 @@ def rgba32(rgb):
 def monitor_u8(image):
     """A rendered image (0..255 monitor settings) as uint8 RGB."""
     data = np.asarray(getattr(image, "data", image))
-    x = np.clip(data, 0, 255, dtype=np.float32) if data.dtype.kind == "f" else np.clip(data, 0, 255)
-    return np.rint(x, out=x).astype(np.uint8) if x.dtype.kind == "f" else x.astype(np.uint8)
+    if data.dtype.kind != "f":
+        return np.clip(data, 0, 255).astype(np.uint8)
+    x = np.clip(data, 0, 255, dtype=np.float32)  # float32 is exact enough for 8 bits
+    return np.rint(x, out=x).astype(np.uint8)
+
+
+def planes_rgba(image):
+    """:func:`planes_rgb` packed for Bokeh (:func:`rgba32`): the demosaiced view's data."""
+    return rgba32(planes_rgb(image))
+
+
+def monitor_rgba(image):
+    """:func:`monitor_u8` packed for Bokeh (:func:`rgba32`): the rendered and ideal views' data."""
+    return rgba32(monitor_u8(image))
 
 
 def histogram(values, bins=40, p995=None):
@@ -250,13 +262,16 @@ def histogram(values, bins=40, p995=None):
     return edges, counts, top
 
 
-def de_range(de, scale):
-    """Colour range of the dE map: (0, 99.5th percentile) of the data, or the fixed (0, 20)."""
+def de_range(de, scale, p995=None):
+    """Colour range of the dE map: (0, 99.5th percentile) of the data, or the fixed (0, 20).
+    ``p995``: that percentile, when the caller has it already."""
     if scale != "data":
         return DE_RANGE
     v = np.asarray(de, float)
     v = v[np.isfinite(v)]
-    top = float(np.percentile(v, 99.5)) if v.size else 1.0
+    if p995 is None and v.size:
+        p995 = np.percentile(v, 99.5)
+    top = float(p995) if v.size else 1.0
     return (0.0, max(top, 0.5))
 
 
@@ -527,7 +542,7 @@ class ResultsView:
             median = p995 = mean = float("nan")
         edges, counts, _ = histogram(finite, p995=p995)
         return dict(image=np.ascontiguousarray(de[::-1].astype(np.float32)), edges=edges, counts=counts,
-                    data_range=(0.0, max(p995, 0.5)) if finite.size else (0.0, 1.0), mean=mean, median=median)
+                    data_range=de_range(finite, "data", p995=p995), mean=mean, median=median)
 
     def prepare(self, res):
         """Every display array of a new result (``ExplorerState.preparers``: runs in the computing thread)."""
@@ -535,10 +550,10 @@ class ResultsView:
             return
         self._memo("raw_view", res.raw, self._raw_view)
         if res.demosaiced is not None:
-            self._memo("demosaiced_view", res.demosaiced, lambda img: rgba32(planes_rgb(img)))
+            self._memo("demosaiced_view", res.demosaiced, planes_rgba)
         for key in ("rendered", "ideal"):
             if getattr(res, key) is not None:
-                self._memo(f"{key}_view", getattr(res, key), lambda img: rgba32(monitor_u8(img)))
+                self._memo(f"{key}_view", getattr(res, key), monitor_rgba)
         de, _ = self.error_map(res)
         if de is not None:
             self._memo("de_view", de, self._de_view)
@@ -563,13 +578,12 @@ class ResultsView:
                                                            f"({self.state.shown.get('demosaic_method', '')})</span>")
         shape = raw.data.shape[:2]
         if self._changed("demosaiced", res.demosaiced):
-            self._send("demosaiced", self._memo("demosaiced_view", res.demosaiced, lambda img: rgba32(planes_rgb(img)))
+            self._send("demosaiced", self._memo("demosaiced_view", res.demosaiced, planes_rgba)
                        if res.demosaiced is not None else _unavailable(shape))
         for key in ("rendered", "ideal"):
             img = getattr(res, key)
             if self._changed(key, img):
-                self._send(key, self._memo(f"{key}_view", img, lambda im: rgba32(monitor_u8(im)))
-                           if img is not None else _unavailable(shape))
+                self._send(key, self._memo(f"{key}_view", img, monitor_rgba) if img is not None else _unavailable(shape))
             self.labels[key].object = self.TITLES[key] + ("" if img is not None else " (not available)")
         de, label = self.error_map(res)
         mean = med = None

@@ -448,7 +448,6 @@ def test_light_level_scales_the_raw_and_a_later_move_reruns_only_its_own_steps(s
 
 
 def test_diffraction_optics_from_the_explorer_blurs_the_raw(state):
-    sharp = np.asarray(state.result.raw.data, float)
     state.f_stop = 32.0  # the smallest aperture offered: the widest diffraction blur
     sharp = np.asarray(state.result.raw.data, float)
     state.optics = "diffraction"
