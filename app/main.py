@@ -253,7 +253,8 @@ def _controls(state, results):
                                      css_classes=["w-centers"], sizing_mode="stretch_width")
     widths = w.TextInput.from_param(state.param.gaussian_widths, name="Gaussian widths (nm)",
                                     css_classes=["w-widths"], sizing_mode="stretch_width")
-    optics = _select(state, "optics", "w-optics", "Optics (diffraction: blur at the f-number)")
+    optics = _select(state, "optics", "w-optics", "Optics")
+    optics.description = "none, or diffraction-limited blur at the f-number, per wavelength"
     mosaic = _select(state, "mosaic", "w-mosaic", "Mosaic")
     tile = w.TextInput.from_param(state.param.custom_tile, name="Custom tile (0-based; rows split by ';')",
                                   css_classes=["w-tile"], sizing_mode="stretch_width")
@@ -261,8 +262,8 @@ def _controls(state, results):
     distance = _number(w.EditableFloatSlider, state, "distance", "w-distance", "Distance (m)",
                        start=0.5, end=10.0, step=0.01)
     exposure = _number(w.FloatInput, state, "exposure", "w-exposure", "Exposure (s)", step=0.005, format="0.0000")
-    light = _number(w.FloatInput, state, "light", "w-light", "Light level (x the scene's own, 0.001-1000)", step=0.1,
-                    format="0.000")
+    light = _number(w.FloatInput, state, "light", "w-light", "Light level (x the scene's)", step=0.1, format="0.000",
+                    description="A factor of the scene's own light, 0.001 to 1000: radiance and illuminant scaled")
     auto = w.Button(name="Auto exposure", css_classes=["w-auto"], button_type="primary", width=120,
                     description="Exposure putting the scene's brightest 0.5 % at 90 % of full scale")
     auto.on_click(lambda e: state.auto_expose())
