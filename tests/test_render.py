@@ -187,3 +187,41 @@ def test_rendered_image_writes_as_displayed_png(monitor, macbeth, tmp_path):
     write_image(out, tmp_path / "x.png")
     back = np.asarray(Image.open(tmp_path / "x.png"))
     assert back.dtype == np.uint8 and np.array_equal(back, out.data)
+
+
+def _in_quanta(sensors):
+    """The same sensors as quantum efficiencies: QE(lambda) = T(lambda) h c / lambda (photons counted, not energy)."""
+    from camsim_core.datasets.sensors import Sensors
+    from camsim_core.simulation.sensor import LIGHT_SPEED, PLANCK
+
+    w = np.asarray(sensors.wavelengths, float)
+    return Sensors(w, np.asarray(sensors.values, float) * (PLANCK * LIGHT_SPEED / (w * 1e-9))[None, :], sensors.names,
+                   "Quanta", "cones in quanta")
+
+
+def test_a_camera_counting_photons_renders_as_the_same_camera_in_energy(monitor):
+    """Quantum efficiencies carry lambda / hc into the responses: rendering (Eq. 1.4) must invert the same
+    sensitivities, so the cone camera in quanta renders what the cone camera in energy does (which is the ideal
+    image, ``test_alpha0_both_renderings_equal_ideal``); before, its rendering was off by ~1e18 (saturated)."""
+    scene = cs.load_scene("cacaphony290")
+    cones = cs.load_camera("mixture-0").replace(mosaic=None, noise_sigma=0.0, bits=None)
+    cam = cones.replace(sensors=_in_quanta(cones.sensors), pixel_size=(5e-6, 5e-6), electrons_per_dn=1.0)
+    energy = cs.simulate(scene, cones, exposure=cs.auto_exposure(scene, cones))
+    quanta = cs.simulate(scene, cam)
+    for method in ("baseline", "illuminant"):
+        expected = cs.render(energy, monitor, method=method).data
+        assert expected.max() > 150  # a real image
+        assert np.abs(cs.render(quanta, monitor, method=method).data - expected).max() <= 1, method
+
+
+def test_analog_gain_scales_the_raw_but_not_the_rendering(monitor):
+    """The electron-level sensor's analog gain multiplies the digital values like exposure does; the image's gain
+    carries it, so the rendered image does not change (apart from the photon noise of the draw)."""
+    scene = cs.load_scene("cacaphony290")
+    cam = camera_preset("imx174").replace(mosaic=None, bits=None, read_noise=0.0, dark_current=0.0, dsnu=0.0, prnu=0.0,
+                                         full_well=None, exposure=0.02, seed=3)
+    one = cs.simulate(scene, cam)
+    two = cs.simulate(scene, cam.replace(analog_gain=2.0))
+    assert two.gain == pytest.approx(2 * one.gain, rel=1e-12)
+    assert np.array_equal(two.data, 2 * one.data)  # the same draw (same seed), twice the digital values
+    assert np.array_equal(cs.render(two, monitor).data, cs.render(one, monitor).data)

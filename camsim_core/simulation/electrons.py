@@ -82,7 +82,8 @@ def electron_sensor(camera, image):
     k = system_gain(camera)
     out = electrons * k + camera.noise_mean
     sigma = float(np.sqrt(camera.read_noise**2 + float(mu_e.mean()) + mu_d) * k)
-    return image.then("noise", data=out, noise_sigma=sigma)
+    # the analog gain scales the signal like exposure: the image's gain carries it, so rendering divides it out
+    return image.then("noise", data=out, noise_sigma=sigma, gain=image.gain * float(camera.analog_gain))
 
 
 def _positive_or_zero(camera, name, unit):

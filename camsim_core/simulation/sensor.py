@@ -65,6 +65,12 @@ def sensor_responses(camera, image):
     if image.space != "spectral":
         raise ParameterError("sensor_responses", f"needs spectral planes, but the image is already in {image.space!r} space")
     weights, gain = sensor_weights(camera, image.wavelengths)
+    # the sensitivities the responses were made with, per unit radiance (for quantal sensors the quantum
+    # efficiency times lambda / hc, photons per joule): rendering inverts them (Eq. 1.4), so they must carry
+    # the same units as the responses divided by the gain
+    sensitivities = camera.sensors.on(image.wavelengths)  # cached by Sensors.on
+    if camera.sensors.unit == "Quanta":
+        sensitivities = weights.T / gain
     data = image.data
     if data.dtype != np.float32:
         data = np.asarray(data, np.float64)
@@ -74,7 +80,7 @@ def sensor_responses(camera, image):
     return image.then(
         "sensor_responses",
         data=out,
-        sensitivities=camera.sensors.on(image.wavelengths),  # cached by Sensors.on
+        sensitivities=sensitivities,
         sensor_names=camera.sensors.names,
         exposure=camera.exposure,
         f_stop=camera.f_stop,
