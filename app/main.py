@@ -23,10 +23,12 @@ import panel as pn
 from bokeh.core.validation import silence
 from bokeh.core.validation.warnings import FIXED_SIZING_MODE
 
+from camsim_core.camera.physical import PHYSICAL_NAMES
 from camsim_core.scene.charts import CHART_NAMES, chart_defaults
 
 from . import state as state_module
 from .compare import compare_tab
+from .physical import SensorControls
 from .quality import QualityView
 from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, ExplorerState, Runner
 from .upload import BoundedUpload
@@ -289,6 +291,8 @@ def _controls(state, results):
     seed_note = Text("", ["camsim-note", "w-seed-note"], margin=(0, 10), styles={"font-size": "0.85em", "color": "#555"})
     illum_note = Text("", ["camsim-note", "w-illuminant-note"], margin=(0, 10),
                       styles={"font-size": "0.85em", "color": "#555"})
+    sensor = SensorControls(state, Text("", ["camsim-note", "w-sensor-note"], margin=(0, 10),
+                                        styles={"font-size": "0.85em", "color": "#555"}))
 
     def states(*_):
         """Show only the controls that act on the current camera; disable the inert ones, saying why."""
@@ -302,9 +306,12 @@ def _controls(state, results):
             illum.disabled = state.render_method != "illuminant"
             illum_note.object = ("Used by illuminant-based rendering only" if illum.disabled else
                                  "Known, or estimated from the image")
-            noisy = state.noise_sigma > 0
+            electrons = state.camera in PHYSICAL_NAMES  # its noise is the sensor's own (Sensor card)
+            noise.disabled = electrons
+            noisy = electrons or state.noise_sigma > 0
             seed.disabled = not noisy
-            seed_note.object = "Draws the noise pattern" if noisy else "No effect without noise"
+            seed_note.object = ("Draws the shot and read noise; noise sigma is for the chapter's cameras" if electrons
+                                else "Draws the noise pattern" if noisy else "No effect without noise")
 
     state.param.watch(states, ["camera", "mosaic", "result", "render_method", "noise_sigma"])
     states()
@@ -338,6 +345,7 @@ def _controls(state, results):
         pn.Card(scene, chart_options, pn.pane.Markdown("Upload a scene (.npz, .mat, a photo, or a .zip of a .Simg, an ENVI .hdr or "
                                         "band PNGs):", visible=_options["upload"]), upload, light, title="Scene", **card),
         pn.Card(camera, alpha, centers, widths, optics, mosaic, tile, title="Camera", **card),
+        pn.Card(*sensor.panel(), sensor.note, title="Sensor (electrons)", collapsed=True, **card),
         pn.Card(distance, pn.Row(exposure, auto, sizing_mode="stretch_width"), f_stop, noise, bits, seed, seed_note,
                 title="Exposure and noise", **card),
         pn.Card(demosaic, render, illum, illum_note, monitor, pn.pane.Markdown("Error metric and dE map colours:"), metric,

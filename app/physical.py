@@ -16,11 +16,12 @@ import holoviews as hv
 import numpy as np
 import panel as pn
 
+from camsim_core.camera.physical import PHYSICAL_NAMES, SENSOR_FIELDS
 from camsim_core.errors import CamsimError
 from camsim_core.optics import cutoff_frequency, diffraction_mtf
 from camsim_core.simulation.electrons import photon_transfer, system_gain
 
-__all__ = ["PhysicalView", "parameter_table", "mtf_curves"]
+__all__ = ["PhysicalView", "SensorControls", "parameter_table", "mtf_curves"]
 
 WAVELENGTHS_NM = (450.0, 550.0, 650.0)
 _COLOURS = {450.0: "#3050d0", 550.0: "#30a030", 650.0: "#d03030"}
@@ -114,3 +115,73 @@ class PhysicalView:
 
     def panel(self):
         return pn.Column(pn.Row(self.table, pn.Column(self.mtf, self.ptc, self.note)), name="Optics & sensor")
+
+
+class SensorControls:
+    """The sidebar's Sensor card: the electron-level sensor's fields in their units, for the current camera.
+
+    Each field shows the value in force (the camera sheet's, or the one set
+    here); a cleared field returns to the sheet's. A refused value (out of
+    range, a full well not above the read noise) gets the state's message and
+    the field goes back. For the chapter's cameras, calibrated in digital
+    units, the fields are disabled and a note says why.
+    """
+
+    #: (label, CSS class) of each field of :data:`SENSOR_FIELDS`
+    LABELS = {
+        "pixel_pitch_um": ("Pixel pitch (um)", "w-sensor-pitch"),
+        "fill_factor_pct": ("Fill factor (%)", "w-sensor-fill"),
+        "full_well_e": ("Full well (e-)", "w-sensor-well"),
+        "read_noise_e": ("Read noise (e- rms)", "w-sensor-read"),
+        "dark_current_e_per_s": ("Dark current (e-/s)", "w-sensor-dark"),
+        "dsnu_e": ("DSNU (e- rms)", "w-sensor-dsnu"),
+        "prnu_pct": ("PRNU (%)", "w-sensor-prnu"),
+    }
+
+    def __init__(self, state, note):
+        """``note``: a text holder (``object`` settable) for the line under the fields."""
+        self.state = state
+        self.note = note
+        self._busy = False
+        self.inputs = {}
+        for name, (unit, low, high, what) in SENSOR_FIELDS.items():
+            label, css = self.LABELS[name]
+            box = pn.widgets.FloatInput(name=label, value=None, css_classes=[css], sizing_mode="stretch_width",
+                                        description=f"{what}; {low:g} to {high:g} {unit}. Clear it for the camera's own.")
+            box.param.watch(lambda e, n=name: self._from_widget(n, e.new), "value")
+            self.inputs[name] = box
+        state.param.watch(lambda e: self.update(), ["camera", "sensor"])
+        self.update()
+
+    def update(self):
+        """Show the fields of the camera the parameters describe (disabled for a camera in digital units)."""
+        fields = self.state.sensor_fields()
+        self._busy = True
+        try:
+            with pn.io.hold():
+                for name, box in self.inputs.items():
+                    box.disabled = fields is None
+                    box.value = None if fields is None else fields[name]
+                self.note.object = (f"Electron-level cameras only ({', '.join(PHYSICAL_NAMES)}): the chapter's cameras "
+                                    "are calibrated in digital units" if fields is None else
+                                    "The sensor keeps its size: a new pitch changes the pixel count, and the full well "
+                                    "follows the pixel's area unless set")
+        finally:
+            self._busy = False
+
+    def _from_widget(self, name, value):
+        if self._busy:
+            return
+        kept = self.state.set_sensor_field(name, value)
+        if kept != value:  # refused or tidied: the field shows the value in force (after the browser's own change)
+            self.state.defer(lambda: self._show(name, kept))
+
+    def _show(self, name, value):
+        self._busy = True
+        try:
+            self.inputs[name].value = value
+        finally:
+            self._busy = False
+
+    def panel(self):
+        return list(self.inputs.values())

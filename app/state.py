@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,6 +39,7 @@ from camsim_core.review import design as _design
 from camsim_core.review.design import (CAMERA_CHOICES, GAUSSIAN_DEFAULTS, ILLUMINANT_CHOICES, METRIC_CHOICES,
                                        MOSAIC_CHOICES, OPTICS_CHOICES, RENDER_CHOICES, camera_from_params,
                                        check_pinned, processing_from_params)
+from camsim_core.camera.physical import PHYSICAL_NAMES, sensor_values
 from camsim_core.scene import scale_light
 from camsim_core.review.sweep import check_sweep
 
@@ -50,7 +52,7 @@ BITS_CHOICES = {"8": 8, "10": 10, "12": 12, "16": 16, "unquantized": 0}
 
 #: The parameters a URL carries (name in the URL = parameter name).
 URL_PARAMETERS = (
-    "scene", "light", "camera", "alpha", "gaussian_centers", "gaussian_widths", "optics", "mosaic", "custom_tile",
+    "scene", "light", "camera", "alpha", "gaussian_centers", "gaussian_widths", "optics", "sensor", "mosaic", "custom_tile",
     "distance", "exposure", "f_stop", "noise_sigma", "bits", "seed",
     "demosaic_method", "render_method", "illuminant", "monitor", "metric", "viewing", "wavelength",
 )
@@ -166,6 +168,8 @@ class ExplorerState(param.Parameterized):
     gaussian_widths = param.String(default="27", doc="Gaussian standard deviations, nm (one or one per sensor)")
     optics = param.Selector(default="none", objects=list(OPTICS_CHOICES),
                             doc="The lens: none, or diffraction-limited blur at the f-number (per wavelength)")
+    sensor = param.String(default="", doc="Electron-level sensor fields changed from the camera's own, "
+                          "'full_well_e=8000, read_noise_e=2' (see camsim_core.camera.physical.SENSOR_FIELDS)")
     mosaic = param.Selector(default="preset", objects=list(MOSAIC_CHOICES), doc="Mosaic layout")
     custom_tile = param.String(default="1 0; 2 1", doc="Custom tile: 0-based sensor indices, rows separated by ';'")
     distance = param.Number(default=3.32, bounds=(0.5, 20.0), step=0.01, doc="Camera to scene, m")
@@ -250,6 +254,12 @@ class ExplorerState(param.Parameterized):
         if self._updating:
             return
         names = {e.name for e in events}
+        if "camera" in names and "sensor" not in names and self.sensor:
+            self._updating = True  # a new camera starts from its own sensor sheet
+            try:
+                self.sensor = ""
+            finally:
+                self._updating = False
         if "camera" in names and self.camera in GAUSSIAN_DEFAULTS:
             centers, widths = GAUSSIAN_DEFAULTS[self.camera]
             if len(parse_numbers_safe(self.gaussian_centers)) != len(parse_numbers_safe(centers)):
@@ -394,6 +404,45 @@ class ExplorerState(param.Parameterized):
             why = (f"must lie in {_range_text(bounds)}" if bounds is not None else str(exc).split(". ")[0])
             self.message = f"Refused: {_LABELS.get(name, name)} {value!r} {why}; kept {getattr(self, name)!r}"
         return getattr(self, name)
+
+    def sensor_fields(self):
+        """The electron-level sensor's fields in their units ({name: value}; full_well_e None: no saturation),
+        of the camera the parameters describe; None for a camera calibrated in digital units (or refused)."""
+        try:
+            cam = self.camera_object()
+        except CamsimError:
+            return None
+        return sensor_values(cam) if cam.noise_model == "photon" else None
+
+    def set_sensor_field(self, name, value):
+        """Set one sensor field (its unit: :data:`SENSOR_FIELDS`); the camera's own value drops the change.
+
+        A value the sensor refuses (out of range, a full well not above the
+        read noise) is refused with a message naming the field. Returns the
+        value in force afterwards (for the widget to show).
+        """
+        fields = self.sensor_fields()
+        if fields is None:
+            self.message = f"Refused: sensor fields belong to the electron-level cameras ({', '.join(PHYSICAL_NAMES)})"
+            return None
+        try:
+            changed = _design.parse_sensor(self.sensor, max_text=LIMITS.max_text)
+            own = sensor_values(camera_from_params(dict(self.design_params(), sensor="")))
+            if value is None or (own[name] is not None and math.isclose(float(value), own[name], rel_tol=1e-9)):
+                changed.pop(name, None)
+            else:
+                changed[name] = float(value)
+            # checked on the camera now: the refusal names the field, and the widget goes back at once
+            camera_from_params(dict(self.design_params(), sensor=_design.sensor_text(changed)),
+                               max_text=LIMITS.max_text)
+        except CamsimError as exc:
+            self.message = f"Refused: {exc}; kept {fields[name]!r}"
+            return fields[name]
+        except (TypeError, ValueError):
+            self.message = f"Refused: {name} {value!r} is not a number; kept {fields[name]!r}"
+            return fields[name]
+        self.sensor = _design.sensor_text(changed)
+        return self.sensor_fields()[name]
 
     def auto_expose(self):
         """Set the exposure so that the scene's bright end (99.5th percentile of the brightest

@@ -2,6 +2,8 @@
 against ``camsim serve`` started on 127.0.0.1. Screenshots go to ``test-artifacts/``.
 """
 
+import time
+
 import pytest
 
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
@@ -400,3 +402,61 @@ def test_light_level_and_diffraction_optics_from_the_sidebar(page):
     blurred = page.wait_for(lambda s: s["params"]["optics"] == "diffraction" and not s["computing"])
     assert blurred["ran"][0][0] == "stage:optics" and blurred["raw_hash"] != dim["raw_hash"]
     assert page.alert_text() == "" and page.errors() == []
+
+
+def _sensor_box(page, css):
+    return page.page.locator(f".{css} input").first
+
+
+def _box_shows(page, css, predicate, timeout=30.0):
+    """Wait until the input of ``css`` shows a value (commas dropped) for which ``predicate`` holds."""
+    box = _sensor_box(page, css)
+    deadline = time.monotonic() + timeout
+    while True:
+        text = box.input_value().replace(",", "")
+        if predicate(text, box):
+            return text
+        if time.monotonic() > deadline:
+            raise AssertionError(f"{css} shows {text!r}")
+        page.page.wait_for_timeout(100)
+
+
+def test_sensor_fields_of_an_electron_level_camera_from_the_sidebar(browser, page):
+    page.page.locator(".card-header", has_text="Sensor (electrons)").first.click()
+    well = _sensor_box(page, "w-sensor-well")
+    assert well.is_disabled()  # the chapter's DCS-200 is calibrated in digital units
+    note = page.page.locator(".w-sensor-note").first
+    assert "digital units" in note.evaluate("e => (e.shadowRoot || e).textContent")
+    page.select("w-camera", "imx174")
+    own = page.wait_for(lambda s: s["params"]["camera"] == "imx174" and not s["computing"])
+    _box_shows(page, "w-sensor-well", lambda text, box: not box.is_disabled())
+    assert float(_sensor_box(page, "w-sensor-pitch").input_value()) == 5.86  # the sheet's values
+    assert float(well.input_value()) == 32000
+    assert page.page.locator(".w-noise input").first.is_disabled()  # the sensor's own noise applies
+    # half the pitch on the same sensor: twice the pixels a side, a quarter of the well
+    page.type_number("w-sensor-pitch", 2.93)
+    fine = page.wait_for(lambda s: s["params"]["sensor"] == "pixel_pitch_um=2.93" and not s["computing"])
+    assert [round(f / o, 1) for f, o in zip(fine["shape"], own["shape"])] == [2.0, 2.0]
+    _box_shows(page, "w-sensor-well", lambda text, box: text == "8000")
+    # a full well below the read noise is refused, naming the field, and the box goes back
+    page.type_number("w-sensor-well", 5)
+    page.page.wait_for_timeout(500)
+    assert "full_well_e" in page.alert_text()
+    _box_shows(page, "w-sensor-well", lambda text, box: text == "8000")
+    page.type_number("w-sensor-read", 2)
+    quiet = page.wait_for(lambda s: s["params"]["sensor"] == "pixel_pitch_um=2.93, read_noise_e=2" and not s["computing"])
+    assert quiet["raw_hash"] != fine["raw_hash"]
+    # the link carries the sensor: another page shows the same raw
+    page.page.wait_for_function("() => window.location.search.includes('read_noise_e')", timeout=30000)
+    second = Page(browser, page.page.url)
+    try:
+        assert second.wait_for(lambda s: s["params"]["sensor"] == quiet["params"]["sensor"])["raw_hash"] == quiet["raw_hash"]
+    finally:
+        second.close()
+    page.shot("sensor-fields")
+    # another camera starts from its own sheet
+    page.select("w-camera", "phone-1.4um")
+    phone = page.wait_for(lambda s: s["params"]["camera"] == "phone-1.4um" and not s["computing"])
+    assert phone["params"]["sensor"] == ""
+    _box_shows(page, "w-sensor-pitch", lambda text, box: text == "1.4")
+    assert page.errors() == []

@@ -483,3 +483,28 @@ def test_a_callback_for_the_event_loop_runs_once_and_lets_go_of_its_arguments():
     never.drop()  # a session closed before its callback ran
     assert never() is None
     gc.collect()
+
+
+def test_sensor_fields_reach_the_camera_and_a_new_camera_starts_from_its_sheet():
+    state = ExplorerState(camera="imx174")
+    assert state.sensor_fields()["full_well_e"] == 32000.0 and state.sensor == ""
+    assert state.set_sensor_field("read_noise_e", 2.5) == 2.5
+    assert state.sensor == "read_noise_e=2.5" and state.result.camera.read_noise == 2.5
+    assert state.set_sensor_field("pixel_pitch_um", 11.72) == 11.72
+    assert state.result.camera.full_well == pytest.approx(128000.0)  # four times the area, four times the well
+    # refused: the message names the field, nothing changes
+    assert state.set_sensor_field("full_well_e", 1.0) == pytest.approx(128000.0)
+    assert state.message.startswith("Refused: full_well_e") and state.sensor == "pixel_pitch_um=11.72, read_noise_e=2.5"
+    # the sheet's own value (or a cleared field) drops the change
+    assert state.set_sensor_field("read_noise_e", 7.0) == 7.0 and state.sensor == "pixel_pitch_um=11.72"
+    assert state.set_sensor_field("pixel_pitch_um", None) == 5.86 and state.sensor == ""
+    state.set_sensor_field("dsnu_e", 4.0)
+    saved = json.loads(state.to_json())
+    assert saved["sensor"] == "dsnu_e=4"
+    again = ExplorerState()
+    assert again.from_json(json.dumps(saved)) and again.result.camera.dsnu == 4.0  # camera and sensor in one file
+    state.camera = "phone-1.4um"
+    assert state.sensor == "" and state.result.camera.dsnu == 1.0  # the phone's own sheet
+    state.camera = "kodak-dcs200-ir"
+    assert state.sensor_fields() is None and state.set_sensor_field("dsnu_e", 2.0) is None
+    assert "electron-level cameras" in state.message

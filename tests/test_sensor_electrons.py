@@ -251,3 +251,66 @@ def test_photon_transfer_curve_of_a_preset_has_the_system_gain_as_its_slope():
         photon_transfer(cs.load_camera("kodak-dcs200-ir"), [0.01, 0.02])
     with pytest.raises(cs.ParameterError, match="exposures"):
         photon_transfer(cam, [0.01, -1])
+
+
+# --- a design's sensor fields --------------------------------------------------------------------------
+
+
+def test_a_finer_pitch_on_the_same_sensor_doubles_the_pixels_and_quarters_the_well():
+    from camsim_core.camera.physical import sensor_values, with_sensor
+
+    cam = cs.load_camera("imx174")
+    fine = with_sensor(cam, pixel_pitch_um=2.93)
+    assert (fine.height, fine.width) == (2 * cam.height, 2 * cam.width)  # the sensor keeps its 7.0 x 11.3 mm
+    assert fine.height * fine.pixel_size[0] == pytest.approx(cam.height * cam.pixel_size[0])
+    # pixels per degree: 1 / degrees(atan(pitch / focal length)), about twice as many
+    assert fine.angular_resolution[0] == pytest.approx(1 / np.degrees(np.arctan(2.93e-6 / 12e-3)))
+    assert fine.full_well == pytest.approx(8000.0)  # 32 ke- over a quarter of the area
+    assert fine.full_well / fine.electrons_per_dn == pytest.approx(4095)  # the 12-bit ADC still spans the well
+    # a full well given is kept; the other fields as set, in their units
+    set_ = with_sensor(cam, pixel_pitch_um=2.93, full_well_e=12000, prnu_pct=2, fill_factor_pct=80, dark_current_e_per_s=1)
+    assert set_.full_well == 12000 and set_.prnu == pytest.approx(0.02) and set_.fill_factor == pytest.approx(0.8)
+    assert sensor_values(set_) == {"pixel_pitch_um": 2.93, "fill_factor_pct": 80.0, "full_well_e": 12000.0,
+                                   "read_noise_e": 7.0, "dark_current_e_per_s": 1.0, "dsnu_e": 2.0, "prnu_pct": 2.0}
+
+
+def test_an_8_bit_readout_of_a_12_bit_sensor_drops_low_bits_instead_of_clipping(cacaphony):
+    """The explorer's default 8 bits on the 12-bit IMX174: the ADC range keeps spanning the full well
+    (before, 8 bits at the sheet's conversion gain clipped at 255 DN = 1,990 e-, a sixteenth of the well)."""
+    from camsim_core.review.design import camera_from_params, check_params
+
+    levels = {}
+    for bits in (8, 12):
+        cam = camera_from_params(check_params({"camera": "imx174", "bits": bits}))
+        assert cam.full_well / cam.electrons_per_dn == pytest.approx(2**bits - 1)
+        raw = cs.simulate(cacaphony, cam.replace(distance=3.32))
+        levels[bits] = float(np.mean(raw.data)) / (2**bits - 1)
+    assert 0.1 < levels[12] < 0.9 and levels[8] == pytest.approx(levels[12], rel=0.01)
+
+
+@pytest.mark.parametrize("camera, text, field, why", [
+    ("kodak-dcs200-ir", "full_well_e=8000", "full_well_e", "digital units"),
+    ("imx174", "pixel_pitch_um=0.1", "pixel_pitch_um", r"um in \[0.5, 20\]"),
+    ("imx174", "prnu_pct=-1", "prnu_pct", r"% in \[0, 100\]"),
+    ("imx174", "full_well_e=50, read_noise_e=60", "full_well", "not above the read noise"),
+    ("imx174", "full_well=8000", "sensor", "names from pixel_pitch_um"),
+    ("imx174", "read_noise_e=abc", "sensor", "expected a number"),
+    ("imx174", "read_noise_e=nan", "sensor", "finite"),
+])
+def test_a_bad_sensor_field_is_refused_naming_it(camera, text, field, why):
+    from camsim_core.review.design import camera_from_params, check_params
+
+    with pytest.raises(cs.ParameterError, match=why) as info:
+        camera_from_params(check_params({"camera": camera, "sensor": text}))
+    assert str(info.value).startswith(field)
+
+
+def test_sensor_text_reads_back_exactly():
+    from camsim_core.camera.physical import SENSOR_FIELDS
+    from camsim_core.review.design import parse_sensor, sensor_text
+
+    values = {"prnu_pct": 0.7, "pixel_pitch_um": 2.93, "full_well_e": 8000.0, "dsnu_e": 1 / 3}
+    text = sensor_text(values)
+    assert text.startswith("pixel_pitch_um=2.93, full_well_e=8000, ")  # SENSOR_FIELDS order, whole numbers plain
+    assert parse_sensor(text) == values and list(parse_sensor(text)) == [k for k in SENSOR_FIELDS if k in values]
+    assert parse_sensor("") == {} and parse_sensor(" ; ") == {}

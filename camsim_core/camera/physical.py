@@ -19,11 +19,12 @@ from pathlib import Path
 import numpy as np
 
 from ..datasets.sensors import WAVELENGTHS_380_780, Sensors
-from ..errors import FileFormatError
+from ..errors import FileFormatError, ParameterError
 from ..simulation import bayer
 from .camera import Camera
 
-__all__ = ["PHYSICAL_NAMES", "physical_camera", "read_sensor_sheet", "angular_resolution_for"]
+__all__ = ["PHYSICAL_NAMES", "physical_camera", "read_sensor_sheet", "angular_resolution_for", "SENSOR_FIELDS",
+           "sensor_values", "with_sensor"]
 
 SENSOR_SHEETS = Path(__file__).resolve().parents[2] / "assets" / "sensors"
 
@@ -102,3 +103,110 @@ def physical_camera(name_or_path, **changes):
     except ValueError as exc:
         raise FileFormatError(path, str(exc)) from None
     return cam.replace(**changes) if changes else cam
+
+
+#: The electron-level sensor's fields a design may set, in the units a user reads them in:
+#: name -> (unit, lowest, highest, what it is). Percentages are the camera's fractions x 100.
+SENSOR_FIELDS = {
+    "pixel_pitch_um": ("um", 0.5, 20.0, "pixel pitch (the sensor keeps its size: the pixel count follows)"),
+    "fill_factor_pct": ("%", 1.0, 100.0, "light-sensitive share of the pixel's area"),
+    "full_well_e": ("e-", 10.0, 1e7, "saturation capacity (the ADC's range spans it)"),
+    "read_noise_e": ("e- rms", 0.0, 1e3, "temporal dark noise"),
+    "dark_current_e_per_s": ("e-/s", 0.0, 1e6, "dark current (with its shot noise)"),
+    "dsnu_e": ("e- rms", 0.0, 1e4, "dark signal non-uniformity, a fixed pattern"),
+    "prnu_pct": ("%", 0.0, 100.0, "photo-response non-uniformity, a fixed pattern"),
+}
+
+
+def sensor_values(camera):
+    """The camera's :data:`SENSOR_FIELDS` in their units (``full_well_e`` None: no saturation).
+
+    Unit conversions are rounded to 12 significant digits (5.86 um, not 5.859999999999999).
+    """
+    def tidy(v):
+        return float(f"{v:.12g}")
+
+    return {
+        "pixel_pitch_um": tidy(camera.pixel_size[1] * 1e6),
+        "fill_factor_pct": tidy(camera.fill_factor * 100.0),
+        "full_well_e": camera.full_well,
+        "read_noise_e": camera.read_noise,
+        "dark_current_e_per_s": camera.dark_current,
+        "dsnu_e": camera.dsnu,
+        "prnu_pct": tidy(camera.prnu * 100.0),
+    }
+
+
+def _spans_full_well(camera):
+    """Whether the camera's ADC range spans its saturation capacity (``electrons_per_dn = full_well / full_scale``)."""
+    return (camera.full_well is not None and camera.bits is not None
+            and abs(camera.electrons_per_dn * camera.full_scale / camera.full_well - 1.0) < 1e-9)
+
+
+def with_sensor(camera, bits=..., **values):
+    """An electron-level camera with sensor fields changed, keeping it a consistent device.
+
+    ``values`` are :data:`SENSOR_FIELDS` in their units (um, %, e-, e-/s);
+    ``bits`` the ADC's (None: unquantized; omitted: kept). What follows from them:
+
+    * ``pixel_pitch_um``: the sensor keeps its size, so its pixel array
+      scales (height, width); the angular resolution follows from the pitch
+      and the focal length; the full well, unless given, scales with the
+      pixel's area (the same electrons per um^2).
+    * When the camera's ADC range spans its full well (the shipped sheets'
+      ``electrons_per_dn = full_well / (2^bits - 1)``), it keeps spanning
+      it at a new full well or bit depth: an 8-bit readout of a 12-bit
+      sensor drops the low bits instead of clipping at a sixteenth of the well.
+
+    Raises ParameterError naming the field (and its unit and range) for an
+    unknown field, a value out of range, or a camera in digital units
+    (the chapter's cameras: their model is calibrated in DN, not electrons).
+    """
+    if camera.noise_model != "photon":
+        names = ", ".join(values) or "sensor"
+        raise ParameterError(names, f"belongs to the electron-level sensor; {camera.name or 'this camera'} is "
+                                    f"calibrated in digital units (choose one of {', '.join(PHYSICAL_NAMES)})")
+    for name, value in values.items():
+        if name not in SENSOR_FIELDS:
+            raise ParameterError(name, f"is not a sensor field; expected one of {', '.join(SENSOR_FIELDS)}")
+        unit, low, high, _ = SENSOR_FIELDS[name]
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+                or not np.isfinite(value) or not low <= value <= high:
+            raise ParameterError(name, f"must be a number of {unit} in [{low:g}, {high:g}], got {value!r}")
+    spans = _spans_full_well(camera)
+    changes = {}
+    full_well = camera.full_well
+    if "pixel_pitch_um" in values:
+        pitch = float(values["pixel_pitch_um"]) * 1e-6
+        old = camera.pixel_size[1]
+        k = old / pitch
+        phi = angular_resolution_for(pitch, camera.focal_length)
+        changes.update(pixel_size=(pitch, pitch), angular_resolution=(phi, phi),
+                       height=max(1, int(round(camera.height * k))), width=max(1, int(round(camera.width * k))))
+        if full_well is not None:
+            full_well = full_well / k**2
+    if "full_well_e" in values:
+        full_well = float(values["full_well_e"])
+    if full_well != camera.full_well:
+        changes["full_well"] = full_well
+    if "fill_factor_pct" in values:
+        changes["fill_factor"] = float(values["fill_factor_pct"]) / 100.0
+    if "read_noise_e" in values:
+        changes["read_noise"] = float(values["read_noise_e"])
+    if "dark_current_e_per_s" in values:
+        changes["dark_current"] = float(values["dark_current_e_per_s"])
+    if "dsnu_e" in values:
+        changes["dsnu"] = float(values["dsnu_e"])
+    if "prnu_pct" in values:
+        changes["prnu"] = float(values["prnu_pct"]) / 100.0
+    if bits is not ...:
+        changes["bits"] = bits
+    new_bits = changes.get("bits", camera.bits)
+    if spans and full_well is not None and new_bits is not None:
+        changes["electrons_per_dn"] = full_well / float(2 ** int(new_bits) - 1)
+    try:
+        return camera.replace(**changes)
+    except ParameterError:
+        raise
+    except (TypeError, ValueError) as exc:
+        raise ParameterError("sensor", str(exc)) from None

@@ -33,7 +33,7 @@ __all__ = [
     "DESIGN_DEFAULTS", "DESIGN_PARAMETERS", "CAMERA_CHOICES", "MOSAIC_CHOICES", "RENDER_CHOICES",
     "ILLUMINANT_CHOICES", "METRIC_CHOICES", "GAUSSIAN_DEFAULTS", "DesignResult",
     "check_params", "camera_from_params", "processing_from_params", "scene_from_params",
-    "evaluate_design", "measures", "quality_measures", "QUALITY_LABELS", "QUALITY_DIGITS", "check_pinned", "MAX_PINNED", "read_design_file", "result_from_pipeline", "parse_numbers", "parse_tile", "differing_parameters",
+    "evaluate_design", "measures", "quality_measures", "QUALITY_LABELS", "QUALITY_DIGITS", "check_pinned", "MAX_PINNED", "read_design_file", "result_from_pipeline", "parse_numbers", "parse_tile", "differing_parameters", "parse_sensor", "sensor_text",
 ]
 
 
@@ -89,6 +89,7 @@ DESIGN_PARAMETERS = {
     "gaussian_centers": ("640, 520, 460", "text", None),
     "gaussian_widths": ("27", "text", None),
     "optics": ("none", "choice", OPTICS_CHOICES),
+    "sensor": ("", "text", None),
     "mosaic": ("preset", "choice", MOSAIC_CHOICES),
     "custom_tile": ("1 0; 2 1", "text", None),
     "distance": (3.32, "number", (0.5, 20.0)),
@@ -160,6 +161,47 @@ def parse_tile(text, *, max_side=MAX_TILE, max_text=MAX_TEXT):
     if min(min(r) for r in tile) < 0:
         raise ParameterError("custom_tile", "sensor indices start at 0; negative entries are not allowed")
     return np.array(tile)
+
+
+def parse_sensor(text, *, max_text=MAX_TEXT):
+    """Sensor fields from text, ``"full_well_e=8000, read_noise_e=2.5"``: {name: value} (empty: the camera's own).
+
+    Names and units are :data:`~camsim_core.camera.physical.SENSOR_FIELDS`;
+    a ParameterError names ``sensor`` and what is wrong (the ranges are
+    checked when the fields are applied, naming the field).
+    """
+    from ..camera.physical import SENSOR_FIELDS
+
+    text = _check_text(text, "sensor", max_text)
+    out = {}
+    for item in (t.strip() for t in text.replace(";", ",").split(",")):
+        if not item:
+            continue
+        name, eq, value = (v.strip() for v in item.partition("="))
+        if not eq or name not in SENSOR_FIELDS:
+            raise ParameterError("sensor", f"expected name=value pairs with names from {', '.join(SENSOR_FIELDS)}, "
+                                           f"got {item[:40]!r}")
+        try:
+            number = float(value)
+        except ValueError:
+            raise ParameterError("sensor", f"{name}: expected a number, got {value[:40]!r}") from None
+        if not math.isfinite(number):
+            raise ParameterError("sensor", f"{name}: expected a finite number, got {value[:40]!r}")
+        out[name] = number
+    return out
+
+
+def sensor_text(values):
+    """The text :func:`parse_sensor` reads back (fields in :data:`SENSOR_FIELDS` order, shortest exact numbers)."""
+    from ..camera.physical import SENSOR_FIELDS
+
+    return ", ".join(f"{k}={_number_text(values[k])}" for k in SENSOR_FIELDS if k in values)
+
+
+def _number_text(value):
+    """``8000`` for a whole number, ``repr`` otherwise (reads back exactly)."""
+    v = float(value)
+    return str(int(v)) if v.is_integer() and abs(v) < 1e15 else repr(v)
 
 
 def check_params(values, where="design"):
@@ -240,6 +282,7 @@ def camera_from_params(params, *, max_sensors=MAX_SENSORS, max_tile=MAX_TILE, ma
     ``max_sensors``, ``max_tile`` and ``max_text`` bound the text-described
     parameters (Gaussian centres and widths, the custom tile).
     """
+    from ..camera.physical import with_sensor
     from ..datasets.sensors import gaussian_sensors
 
     p = dict(DESIGN_DEFAULTS, **params)
@@ -265,11 +308,15 @@ def camera_from_params(params, *, max_sensors=MAX_SENSORS, max_tile=MAX_TILE, ma
         f_stop=float(p["f_stop"]),
         noise_sigma=float(p["noise_sigma"]),
         noise_mean=0.0,
-        bits=int(p["bits"]) or None,
         seed=int(p["seed"]),
         optics=str(p["optics"]),
     )
-    return cam.replace(**changes)
+    bits = int(p["bits"]) or None
+    sensor = parse_sensor(p["sensor"], max_text=max_text)
+    if cam.noise_model != "photon" and not sensor:
+        return cam.replace(bits=bits, **changes)
+    # an electron-level sensor stays a consistent device at other bits, pitch or full well
+    return with_sensor(cam.replace(**changes), bits=bits, **sensor)
 
 
 def processing_from_params(params, metrics=None):
