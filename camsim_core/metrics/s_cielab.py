@@ -228,29 +228,19 @@ def _pad_width(kernel_length, n):
 
 @functools.lru_cache(maxsize=16)
 def _plan(spd, shape):
-    """FFT sizes, margins and cached kernel spectra for images of ``shape`` (H, W).
+    """Mirror margins (py, px) and kernel half-widths (cy, cx) for images of ``shape`` (H, W).
 
     Taps farther from the centre than the mirrored image reaches (``n - 1 +
     pad``) only ever meet zeros, so they are dropped, which keeps a kernel
-    much wider than a small image from inflating the FFT.
+    much wider than a small image from inflating the FFT. (The kernels'
+    spectra are made per band of rows, :func:`_band_spectra`: spectra the size
+    of a 12-megapixel image would hold 300 MiB.)
     """
     H, W = shape
-    kernels = _kernels(spd)
-    L = kernels[0][0].shape[1]
+    L = _kernels(spd)[0][0].shape[1]
     c = L // 2
     py, px = _pad_width(L, H), _pad_width(L, W)
-    cy, cx = min(c, H - 1 + py), min(c, W - 1 + px)
-    # circular convolution of size >= n + pad + c leaves the cropped part free of wrap-around
-    fy = scipy.fft.next_fast_len(H + py + cy, real=True)
-    fx = scipy.fft.next_fast_len(W + px + cx, real=True)
-    spectra = np.stack(
-        [
-            scipy.fft.rfft2(_kernel_2d(kx[:, c - cx : c + cx + 1], ky[:, c - cy : c + cy + 1]), s=(fy, fx))
-            for kx, ky in kernels
-        ]
-    )
-    spectra.flags.writeable = False
-    return (py, px, cy, cx, fy, fx, spectra)
+    return py, px, min(c, H - 1 + py), min(c, W - 1 + px)
 
 
 # ---------------------------------------------------------------------------
@@ -286,7 +276,7 @@ def _filter_plane(plane, ch, spd, out):
     (float32 stays float32: scipy.fft transforms in single precision).
     """
     H, W = plane.shape
-    py, px, cy, cx, _, _, _ = _plan(spd, (H, W))
+    py, px, cy, cx = _plan(spd, (H, W))
     padded = np.pad(plane, ((py, py), (px, px)), mode="symmetric")
     PH = padded.shape[0]
     band = min(H, BAND_ROWS)
