@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._chunks import map_pixels
 from .datasets import SIMTOOLBOX
 from .errors import FileFormatError, ParameterError
 from .spectra import resample_power, sampling_wavelengths
@@ -113,6 +114,12 @@ class Monitor:
         """
         lin = np.asarray(linear)
         dtype = lin.dtype if lin.dtype in (np.float32, np.float64) else np.dtype(np.float64)
+        # by chunks of pixels: the lookups' temporaries (indices, two table values) stay a few MiB
+        # instead of four copies of a 12-megapixel image
+        return map_pixels(lambda chunk: self._frame_buffer_chunk(chunk, dtype), lin).astype(dtype, copy=False)
+
+    def _frame_buffer_chunk(self, lin, dtype):
+        """:meth:`linear_to_frame_buffer` of (n, 3) values."""
         lin = np.clip(lin, 0.0, 1.0, dtype=dtype)
         lo, hi = _frame_buffer_tables(self, dtype)
         idx = (lin * dtype.type(_BUCKETS)).astype(np.int32)
@@ -127,7 +134,7 @@ class Monitor:
             for ch in range(3):
                 sel = c == ch
                 flat[unsure[sel]] = np.rint(self._settings(x[sel].astype(np.float64), ch) * full)
-        return out.astype(dtype, copy=False)
+        return out
 
     def frame_buffer_to_linear(self, values):
         """``settings_to_linear(values / (2**bits - 1))`` for frame-buffer values (..., 3), by a 2**bits table.

@@ -20,6 +20,7 @@ from __future__ import annotations
 import colour
 import numpy as np
 
+from .._chunks import map_pixels
 from ..errors import ParameterError
 
 __all__ = ["METHODS", "xyz_to_lab", "delta_e", "delta_e_lab", "check_white", "check_xyz"]
@@ -176,4 +177,5 @@ def delta_e(xyz1, xyz2, white, method="CIE 1976"):
     method = _method(method)
     w = check_white(white)
     a, b = check_pair(xyz1, xyz2)
-    return delta_e_lab(_xyz_to_lab(a, w), _xyz_to_lab(b, w), method)
+    # by chunks of pixels: two Lab images and their difference never exist at full size
+    return map_pixels(lambda x, y: delta_e_lab(_xyz_to_lab(x, w), _xyz_to_lab(y, w), method)[:, None], a, b)[..., 0]

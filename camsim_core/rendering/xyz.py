@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._chunks import map_pixels
 from ..errors import ParameterError
 from ._linear import apply_matrix
 
@@ -45,8 +46,13 @@ def to_xyz(rendered, monitor):
     if data.ndim != 3 or data.shape[2] != 3:
         raise ParameterError("rendered", f"expected (H, W, 3) monitor values, got {data.shape}")
     bits = rendered.bits or monitor.bits
-    if bits == monitor.bits:
-        linear = monitor.frame_buffer_to_linear(data)  # a 2**bits table: the same numbers
-    else:
-        linear = monitor.settings_to_linear(data / float(2**bits - 1)).astype(data.dtype, copy=False)
-    return apply_matrix(linear, monitor_xyz_matrix(monitor))
+    m = monitor_xyz_matrix(monitor)
+
+    def convert(values):
+        if bits == monitor.bits:
+            linear = monitor.frame_buffer_to_linear(values)  # a 2**bits table: the same numbers
+        else:
+            linear = monitor.settings_to_linear(values / float(2**bits - 1)).astype(values.dtype, copy=False)
+        return apply_matrix(linear[:, None, :], m)[:, 0, :]
+
+    return map_pixels(convert, data)  # by chunks: no full-size temporaries
