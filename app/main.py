@@ -291,8 +291,11 @@ def _controls(state, results):
     seed_note = Text("", ["camsim-note", "w-seed-note"], margin=(0, 10), styles={"font-size": "0.85em", "color": "#555"})
     illum_note = Text("", ["camsim-note", "w-illuminant-note"], margin=(0, 10),
                       styles={"font-size": "0.85em", "color": "#555"})
-    sensor = SensorControls(state, Text("", ["camsim-note", "w-sensor-note"], margin=(0, 10),
-                                        styles={"font-size": "0.85em", "color": "#555"}))
+
+    def sensor_fields():
+        sensor = SensorControls(state, Text("", ["camsim-note", "w-sensor-note"], margin=(0, 10),
+                                            styles={"font-size": "0.85em", "color": "#555"}))
+        return [*sensor.panel(), sensor.note]
 
     def states(*_):
         """Show only the controls that act on the current camera; disable the inert ones, saying why."""
@@ -316,43 +319,61 @@ def _controls(state, results):
     state.param.watch(states, ["camera", "mosaic", "result", "render_method", "noise_sigma"])
     states()
 
-    params_down = w.FileDownload(callback=lambda: io.BytesIO(state.to_json().encode()), filename="camsim-parameters.json",
-                                 label="Parameters (JSON)", css_classes=["w-json-download"], button_type="light",
-                                 sizing_mode="stretch_width")
-    params_up = BoundedUpload(accept=".json", max_bytes=limits.max_json_bytes, css_classes=["w-json-upload"],
-                              sizing_mode="stretch_width")
+    def save_and_share():
+        params_down = w.FileDownload(callback=lambda: io.BytesIO(state.to_json().encode()), filename="camsim-parameters.json",
+                                     label="Parameters (JSON)", css_classes=["w-json-download"], button_type="light",
+                                     sizing_mode="stretch_width")
+        params_up = BoundedUpload(accept=".json", max_bytes=limits.max_json_bytes, css_classes=["w-json-upload"],
+                                  sizing_mode="stretch_width")
 
-    def on_params(event):
-        if params_up.value is not None:
-            state.from_json(params_up.value.decode("utf-8", errors="replace"))
+        def on_params(event):
+            if params_up.value is not None:
+                state.from_json(params_up.value.decode("utf-8", errors="replace"))
 
-    def on_params_refused(event):
-        if params_up.refused:
-            state.message = f"Parameters file refused: {params_up.refused.rsplit(' (refusal', 1)[0]}"
+        def on_params_refused(event):
+            if params_up.refused:
+                state.message = f"Parameters file refused: {params_up.refused.rsplit(' (refusal', 1)[0]}"
 
-    params_up.param.watch(on_params, "value")
-    params_up.param.watch(on_params_refused, "refused")
-    downloads = [
-        w.FileDownload(callback=results.rendered_png, filename="rendered.png", label="Rendered PNG",
-                       css_classes=["w-png"], button_type="light", sizing_mode="stretch_width"),
-        w.FileDownload(callback=results.raw_tiff, filename="raw.tif", label="Raw TIFF",
-                       css_classes=["w-tiff"], button_type="light", sizing_mode="stretch_width"),
-        w.FileDownload(callback=results.de_csv, filename="delta_e.csv", label="dE values (CSV)",
-                       css_classes=["w-csv"], button_type="light", sizing_mode="stretch_width"),
-    ]
+        params_up.param.watch(on_params, "value")
+        params_up.param.watch(on_params_refused, "refused")
+        downloads = [
+            w.FileDownload(callback=results.rendered_png, filename="rendered.png", label="Rendered PNG",
+                           css_classes=["w-png"], button_type="light", sizing_mode="stretch_width"),
+            w.FileDownload(callback=results.raw_tiff, filename="raw.tif", label="Raw TIFF",
+                           css_classes=["w-tiff"], button_type="light", sizing_mode="stretch_width"),
+            w.FileDownload(callback=results.de_csv, filename="delta_e.csv", label="dE values (CSV)",
+                           css_classes=["w-csv"], button_type="light", sizing_mode="stretch_width"),
+        ]
+        return [params_down, pn.pane.Markdown("Load parameters (JSON):"), params_up, *downloads]
+
     card = dict(sizing_mode="stretch_width", margin=(4, 0))
     return [
         pn.Card(scene, chart_options, pn.pane.Markdown("Upload a scene (.npz, .mat, a photo, or a .zip of a .Simg, an ENVI .hdr or "
                                         "band PNGs):", visible=_options["upload"]), upload, light, title="Scene", **card),
         pn.Card(camera, alpha, centers, widths, optics, mosaic, tile, title="Camera", **card),
-        pn.Card(*sensor.panel(), sensor.note, title="Sensor (electrons)", collapsed=True, **card),
+        _opened_card(sensor_fields, title="Sensor (electrons)", **card),
         pn.Card(distance, pn.Row(exposure, auto, sizing_mode="stretch_width"), f_stop, noise, bits, seed, seed_note,
                 title="Exposure and noise", **card),
         pn.Card(demosaic, render, illum, illum_note, monitor, pn.pane.Markdown("Error metric and dE map colours:"), metric,
                 de_scale, title="Processing", **card),
-        pn.Card(params_down, pn.pane.Markdown("Load parameters (JSON):"), params_up, *downloads,
-                title="Save and share", collapsed=True, **card),
+        _opened_card(save_and_share, title="Save and share", **card),
     ]
+
+
+def _opened_card(build, **card):
+    """A collapsed card whose content ``build()`` makes the first time it is opened: a page opens with fewer
+    models to make and send (each widget is several Bokeh models), and what is never opened costs nothing."""
+    holder = pn.Column(sizing_mode="stretch_width", margin=0)
+    opened = pn.Card(holder, collapsed=True, **card)
+
+    def on_open(event):
+        if not event.new and not holder.objects:
+            content = list(build())
+            _undelayed(content)
+            holder.objects = content
+
+    opened.param.watch(on_open, "collapsed")
+    return opened
 
 
 def _experiments_tab(state):
@@ -536,7 +557,7 @@ def _undelayed(objects):
     (to gather a burst into one) before acting on it. A burst costs nothing here (a newer change supersedes
     the computation of an older one), and 50 ms is a third of the time a slider has to answer."""
     for obj in objects:
-        for widget in obj.select(pn.widgets.Widget):
+        for widget in obj.select(pn.widgets.Widget) if hasattr(obj, "select") else ():  # a Text has no widgets
             widget._debounce = 0
 
 

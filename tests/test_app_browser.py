@@ -4,6 +4,7 @@ against ``camsim serve`` started on 127.0.0.1. Screenshots go to ``test-artifact
 
 import time
 
+import numpy as np
 import pytest
 
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
@@ -460,3 +461,40 @@ def test_sensor_fields_of_an_electron_level_camera_from_the_sidebar(browser, pag
     assert phone["params"]["sensor"] == ""
     _box_shows(page, "w-sensor-pitch", lambda text, box: text == "1.4")
     assert page.errors() == []
+
+
+def test_save_and_share_downloads_what_the_page_shows_and_loads_parameters(page, tmp_path):
+    import json as _json
+
+    import tifffile
+    from PIL import Image
+
+    shown = page.status()
+    page.page.locator(".card-header", has_text="Save and share").first.click()
+    files = {}
+    for css in ("w-png", "w-tiff", "w-csv", "w-json-download"):
+        with page.page.expect_download(timeout=60000) as info:
+            page.page.locator(f".{css} button").first.click()
+        files[css] = tmp_path / info.value.suggested_filename
+        info.value.save_as(files[css])
+    h, w = shown["shape"]
+    png = np.asarray(Image.open(files["w-png"]))
+    assert files["w-png"].name == "rendered.png" and png.shape == (h, w, 3) and png.std() > 5  # a picture, not a flat field
+    raw = tifffile.imread(files["w-tiff"])
+    assert raw.shape == (h, w) and raw.dtype == np.uint16 and raw.max() <= 255  # the 8-bit raw as digital values
+    de = np.loadtxt(files["w-csv"], delimiter=",")
+    assert de.shape == (h, w) and abs(de.mean() - shown["mean_de"]) < 1e-3
+    params = _json.loads(files["w-json-download"].read_text())
+    assert {k: params[k] for k in shown["params"]} == shown["params"]
+    # the file, edited, loads back: the page computes its parameters
+    params["noise_sigma"] = 3.0
+    edited = tmp_path / "edited.json"
+    edited.write_text(_json.dumps(params))
+    page.page.locator(".w-json-upload input[type=file]").first.set_input_files(str(edited))
+    loaded = page.wait_for(lambda s: s["params"]["noise_sigma"] == 3.0 and not s["computing"])
+    assert loaded["mean_de"] > shown["mean_de"] and page.alert_text() == ""
+    # a file that is not JSON is refused with a message, the parameters stay
+    (tmp_path / "bad.json").write_text("{not json")
+    page.page.locator(".w-json-upload input[type=file]").first.set_input_files(str(tmp_path / "bad.json"))
+    page.page.wait_for_timeout(500)
+    assert "not JSON" in page.alert_text() and page.params()["noise_sigma"] == 3.0
