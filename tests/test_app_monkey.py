@@ -31,7 +31,7 @@ SELECTS = {
     "scene": ("w-scene", ["cacaphony290", "bfgb128", "macbeth", "stripes", "slanted-edge", "zone-plate", "uniform",
                           "munsell", "photo-coffee"]),
     "camera": ("w-camera", ["kodak-dcs200", "kodak-dcs200-ir", "human-cones", "stockman-sharpe", "cie1931",
-                            "gaussian-3", "gaussian-4", "mixture"]),
+                            "gaussian-3", "gaussian-4", "mixture", "imx174", "phone-1.4um"]),
     "mosaic": ("w-mosaic", ["preset", "GRBG", "RGGB", "BGGR", "GBRG", "4-sensor grid", "none"]),
     "demosaic_method": ("w-demosaic", ["bilinear", "freeman", "bayesian", "malvar2004", "menon2007"]),
     "render_method": ("w-render", ["baseline", "illuminant"]),
@@ -39,8 +39,19 @@ SELECTS = {
     "monitor": ("w-monitor", ["simtoolbox-test", "brainard-crt"]),
 }
 #: Refusals the engine documents: Bayer-only demosaicing on another tile; a tile naming a
-#: sensor the camera lacks; a tile that never samples one of its sensors.
-DOCUMENTED = ("Bayer", "sensor index", "never samples")
+#: sensor the camera lacks; a tile that never samples one of its sensors; a sensor field out of
+#: its range, or a full well not above the read noise; a scene seen on under two mosaic tiles a side.
+DOCUMENTED = ("Bayer", "sensor index", "never samples", "must be a number of", "not above the read noise",
+              "too small to demosaic")
+#: The Sensor card's fields (electron-level cameras): CSS class, and values a student might type
+#: (in range, at the ends, beyond them; none is a shipped sheet's own value, which the design drops).
+SENSOR = {
+    "pixel_pitch_um": ("w-sensor-pitch", [0.5, 1.1, 2.93, 9, 20, 0.1, 50]),
+    "full_well_e": ("w-sensor-well", [10, 2000, 50000, 1e7, 5, -1]),
+    "read_noise_e": ("w-sensor-read", [0, 1.5, 30, 1000, 5000]),
+    "prnu_pct": ("w-sensor-prnu", [0, 2.5, 10, 100, 150]),
+    "dark_current_e_per_s": ("w-sensor-dark", [0, 50, 1e6, -3]),
+}
 
 
 def _widget_value(page, key):
@@ -50,6 +61,21 @@ def _widget_value(page, key):
     if key in ("distance", "alpha"):
         return page.page.locator(f".w-{key} input").first.input_value()
     return None
+
+
+def _sensor_set(status, field, number):
+    """Whether the design's sensor text (``"full_well_e=8000, read_noise_e=2"``) holds ``field`` at ``number``."""
+    pairs = dict(item.split("=") for item in status["params"]["sensor"].split(", ") if item)
+    return field in pairs and float(pairs[field]) == number
+
+
+def _box_number(page, css):
+    """The number a sensor field's box shows (thousands separators dropped)."""
+    text = page.page.locator(f".{css} input").first.input_value().replace(",", "")
+    try:
+        return float(text)
+    except ValueError:
+        return None
 
 
 def _views_show_the_image(page, status, step, settle=20.0):
@@ -75,7 +101,10 @@ def _views_show_the_image(page, status, step, settle=20.0):
         crop = page_rgb[y0:y0 + int(box["height"]), x0:x0 + int(box["width"])]
         assert crop.size, f"step {step}: {key} view is off screen"
         blank = float(np.mean(np.all(np.abs(crop - 255) <= 8, axis=-1)))
-        assert blank < 0.5, f"step {step}: {key} view is {100 * blank:.0f} % background"
+        # a view of a saturated camera image is white where it clips (the warning line says so): the
+        # camera's views may then look like the background; the ideal image and the dE map may not
+        saturated = status["clipped"] > 0.25 and key in ("raw", "demosaiced", "rendered")
+        assert blank < 0.5 or saturated, f"step {step}: {key} view is {100 * blank:.0f} % background"
 
 
 def test_random_walk_over_the_controls():
@@ -89,9 +118,24 @@ def test_random_walk_over_the_controls():
         page.page.set_viewport_size({"width": 1920, "height": 1080})
         try:
             expected = dict(page.status()["params"])
+            walked = []
             for step in range(1, STEPS + 1):
-                key = rng.choice(list(SELECTS) + ["distance", "metric", "alpha"])
-                if key == "distance":
+                key = rng.choice(list(SELECTS) + ["distance", "metric", "alpha", "sensor"])
+                field = None
+                if key == "sensor" and expected["camera"] not in ("imx174", "phone-1.4um"):
+                    # the fields are disabled for the chapter's cameras: go to an electron-level one first
+                    key, value = "camera", rng.choice(["imx174", "phone-1.4um"])
+                    page.select("w-camera", value)
+                elif key == "sensor":
+                    header = page.page.locator(".card-header", has_text="Sensor (electrons)").first
+                    if not page.page.locator(".w-sensor-well input").count():
+                        header.click()  # the card makes its fields when first opened
+                    field = rng.choice(list(SENSOR))
+                    css, values = SENSOR[field]
+                    number = float(rng.choice(values))
+                    page.type_number(css, number)
+                    value = (field, number)
+                elif key == "distance":
                     value = round(rng.uniform(0.5, 10.0), 2)
                     page.type_number("w-distance", value)
                 elif key == "metric":
@@ -111,11 +155,28 @@ def test_random_walk_over_the_controls():
                     page.select(css, value)
                 # settled: computed as set, or refused with the widget back at the value shown (an
                 # earlier refusal may still be on screen, so the message alone does not say this one came)
-                s = page.wait_for(lambda s, k=key, v=value: not s["computing"] and
-                                  (s["params"][k] == v or ("Refused" in page.alert_text() and
-                                                           _widget_value(page, k) in (None, str(expected[k])))),
-                                  timeout=240)
-                if s["params"][key] == value:
+                def settled(s, k=key, v=value):
+                    if k == "sensor":  # the field is in the design's sensor text, or refused with the box put back
+                        return not s["computing"] and (_sensor_set(s, *v) or ("Refused" in page.alert_text() and
+                                                                              _box_number(page, SENSOR[v[0]][0]) != v[1]))
+                    return not s["computing"] and (s["params"][k] == v or ("Refused" in page.alert_text() and
+                                                                           _widget_value(page, k) in (None, str(expected[k]))))
+
+                try:
+                    s = page.wait_for(settled, timeout=240)
+                except AssertionError as exc:
+                    raise AssertionError(f"step {step}: {key}={value!r} never settled (walk: {walked}); "
+                                         f"alert {page.alert_text()!r}; {exc}") from None
+                if key == "sensor" and _sensor_set(s, *value):
+                    expected["sensor"] = s["params"]["sensor"]  # the field joins the others set before
+                    assert page.alert_text() == "", f"step {step}: {value}: {page.alert_text()}"
+                elif key == "sensor":
+                    text = page.alert_text()
+                    # the message names the field typed, or says the full well would not be above the read noise
+                    assert field in text or "not above the read noise" in text, f"step {step}: {value}: {text}"
+                    assert any(d in text for d in DOCUMENTED), f"step {step}: {value}: {text}"
+                    assert s["params"]["sensor"] == expected["sensor"]
+                elif s["params"][key] == value:
                     expected[key] = value
                     assert page.alert_text() == "", f"step {step}: {key}={value!r}: {page.alert_text()}"
                 else:  # refused: documented, and the widgets are back at the values shown
@@ -125,13 +186,17 @@ def test_random_walk_over_the_controls():
                         css = SELECTS[key][0]
                         page.page.wait_for_function("([el, v]) => el.value === v", arg=[
                             page.page.locator(f".{css} select").first.element_handle(), expected[key]])
-                if key == "camera":  # a camera brings its own Gaussian defaults: take them as set
+                if key == "camera":  # a camera brings its own Gaussian defaults and sensor sheet: take them as set
                     expected.update({k: s["params"][k] for k in ("gaussian_centers", "gaussian_widths")})
+                    assert s["params"]["sensor"] == ""
+                    expected["sensor"] = ""
                 assert s["params"] == expected, f"step {step}: computed {s['params']} != set {expected}"
+                walked.append(key if key != "sensor" else field)
                 page.page.wait_for_timeout(200)
                 _views_show_the_image(page, s, step)
                 if step % 25 == 0 or step == STEPS:
                     page.shot(f"monkey-{step:03d}")
+            print(f"\nwalk (seed {SEED}): {', '.join(walked)}")
             assert page.errors() == []
         finally:
             page.close()

@@ -247,3 +247,17 @@ def test_bayesian_original_mode_is_brainards_form():
         cs.demosaic(raw, "bayesian", noise_fraction=0.1)
     with pytest.raises(ParameterError, match="noise_sigma"):
         cs.demosaic(raw, "bayesian-original", noise_sigma=3.0)
+
+
+@pytest.mark.parametrize("method", ["bilinear", "freeman", "bayesian", "malvar2004", "menon2007"])
+@pytest.mark.parametrize("shape", [(1, 2), (3, 5), (2, 9), (1, 1)])
+def test_a_mosaic_under_two_tiles_a_side_is_refused_by_every_method(method, shape):
+    """A far camera with large pixels can see a scene on a few pixels: a clear refusal, never an IndexError."""
+    cfa = np.full(shape, 100.0)
+    with pytest.raises(cs.ParameterError, match=rf"is {shape[0]} x {shape[1]} pixels, fewer than two mosaic tiles \(4 x 4\)"):
+        cs.demosaic(cs.raw_from_array(cfa, "GRBG"), method)
+
+
+def test_two_tiles_a_side_demosaic():
+    out = cs.demosaic(cs.raw_from_array(np.full((4, 4), 100.0), "GRBG"))
+    assert out.data.shape == (4, 4, 3) and np.allclose(out.data, 100.0)

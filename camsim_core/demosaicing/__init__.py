@@ -71,6 +71,16 @@ METHODS = {
 }
 
 
+def _check_size(image):
+    """A mosaic must repeat its tile at least twice each way: each sensor then has a neighbour of its own
+    class to interpolate from (a far camera or large pixels can leave a scene only a few pixels)."""
+    h, w = np.shape(image.data)[:2]
+    th, tw = np.shape(image.tile)
+    if h < 2 * th or w < 2 * tw:
+        raise ParameterError("image", f"is {h} x {w} pixels, fewer than two mosaic tiles ({2 * th} x {2 * tw}) a side: "
+                                      "too small to demosaic (bring the camera closer, or use smaller pixels)")
+
+
 def demosaic(image, method="bilinear", **options):
     """Demosaic a camera image.
 
@@ -95,6 +105,7 @@ def demosaic(image, method="bilinear", **options):
     if key not in METHODS:
         raise ParameterError("method", f"unknown demosaicing method {method!r}; valid: {', '.join(METHODS)}")
     check_mosaiced(image, key)
+    _check_size(image)
     image = subtract_black_level(image)
     out = METHODS[key](image, **options)
     extra = dict(image.extra)
