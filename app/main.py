@@ -462,6 +462,37 @@ def _new_state(scene):
     return state
 
 
+#: How often a session checks for changes Panel left unsent (ms): the longest a stranded result waits.
+STRANDED_CHECK_MS = 500
+
+
+def flush_stranded_writes(doc):
+    """Send changes Panel queued for the browser and then forgot; True when there were some.
+
+    Panel (1.9) queues the changes made while a websocket write is under way
+    (``_WRITE_MSGS``) and schedules a task that sends them while the write
+    block (``_WRITE_BLOCK``) is set. An earlier such task that finishes in
+    between clears the block, and the new task then returns without sending:
+    the page keeps its previous result although the session has the new one,
+    until some later change happens to send them along (seen as a "lost
+    update" in long browser walks and under load). Each session runs this
+    check every ``STRANDED_CHECK_MS``: it re-arms the block and the task for
+    queued messages that no task will send.
+    """
+    from panel.io import document as pdoc
+
+    msgs, block = getattr(pdoc, "_WRITE_MSGS", None), getattr(pdoc, "_WRITE_BLOCK", None)
+    dispatch = getattr(pdoc, "_dispatch_write_task", None)
+    if msgs is None or block is None or dispatch is None:  # another Panel: nothing known to flush
+        return False
+    if msgs.get(doc) and doc not in block:
+        block[doc] = True
+        dispatch(doc, pdoc._dispatch_msgs, doc)
+        logging.getLogger("camsim.explorer").info("re-sent %d stranded message group(s)", len(msgs[doc]))
+        return True
+    return False
+
+
 def _go_background(state):
     """In a server session: compute in a thread of this session, show results on its next tick."""
     doc = pn.state.curdoc
@@ -482,6 +513,7 @@ def _go_background(state):
 
     state.set_runner(Runner(state._compute, deliver))
     state.defer = _later
+    doc.add_periodic_callback(partial(flush_stranded_writes, doc), STRANDED_CHECK_MS)
 
 
 def create_app(scene=None):

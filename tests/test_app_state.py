@@ -508,3 +508,27 @@ def test_sensor_fields_reach_the_camera_and_a_new_camera_starts_from_its_sheet()
     state.camera = "kodak-dcs200-ir"
     assert state.sensor_fields() is None and state.set_sensor_field("dsnu_e", 2.0) is None
     assert "electron-level cameras" in state.message
+
+
+def test_changes_panel_queued_and_no_task_will_send_are_sent(monkeypatch):
+    """Panel's race: a write task that finishes clears the write block after a newer change queued its
+    message, and the newer task then returns without sending. The session's check re-arms both."""
+    from bokeh.document import Document
+    from panel.io import document as pdoc
+
+    from app.main import flush_stranded_writes
+
+    doc = Document()
+    calls = []
+    monkeypatch.setattr(pdoc, "_dispatch_write_task", lambda d, fn, *args: calls.append((d, fn, args)))
+    try:
+        assert not flush_stranded_writes(doc) and calls == []  # nothing queued
+        pdoc._WRITE_MSGS[doc] = {"connection": ["PATCH-DOC"]}
+        pdoc._WRITE_BLOCK[doc] = True
+        assert not flush_stranded_writes(doc) and calls == []  # queued, and a task holds the block: it sends
+        del pdoc._WRITE_BLOCK[doc]
+        assert flush_stranded_writes(doc)  # queued, block cleared: stranded
+        assert pdoc._WRITE_BLOCK.get(doc) is True and calls == [(doc, pdoc._dispatch_msgs, (doc,))]
+    finally:
+        pdoc._WRITE_MSGS.pop(doc, None)
+        pdoc._WRITE_BLOCK.pop(doc, None)
