@@ -161,7 +161,9 @@ class SensorControls:
             with pn.io.hold():
                 for name, box in self.inputs.items():
                     box.disabled = fields is None
-                    box.value = None if fields is None else fields[name]
+                    value = None if fields is None else fields[name]
+                    # six significant digits on screen (a well scaled with the area: 877551, not 877551.0204081632)
+                    box.value = None if value is None else float(f"{value:.6g}")
                 self.note.object = (f"Electron-level cameras only ({', '.join(PHYSICAL_NAMES)}): the chapter's cameras "
                                     "are calibrated in digital units" if fields is None else
                                     "The sensor keeps its size: a new pitch changes the pixel count, and the full well "
