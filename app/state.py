@@ -433,8 +433,8 @@ class ExplorerState(param.Parameterized):
             else:
                 changed[name] = float(value)
             # checked on the camera now: the refusal names the field, and the widget goes back at once
-            camera_from_params(dict(self.design_params(), sensor=_design.sensor_text(changed)),
-                               max_text=LIMITS.max_text)
+            checked = camera_from_params(dict(self.design_params(), sensor=_design.sensor_text(changed)),
+                                         max_text=LIMITS.max_text)
         except CamsimError as exc:
             self.message = f"Refused: {exc}; kept {fields[name]!r}"
             return fields[name]
@@ -442,7 +442,7 @@ class ExplorerState(param.Parameterized):
             self.message = f"Refused: {name} {value!r} is not a number; kept {fields[name]!r}"
             return fields[name]
         self.sensor = _design.sensor_text(changed)
-        return self.sensor_fields()[name]
+        return sensor_values(checked)[name]
 
     def auto_expose(self):
         """Set the exposure so that the scene's bright end (99.5th percentile of the brightest

@@ -177,5 +177,11 @@ def delta_e(xyz1, xyz2, white, method="CIE 1976"):
     method = _method(method)
     w = check_white(white)
     a, b = check_pair(xyz1, xyz2)
-    # by chunks of pixels: two Lab images and their difference never exist at full size
-    return map_pixels(lambda x, y: delta_e_lab(_xyz_to_lab(x, w), _xyz_to_lab(y, w), method)[:, None], a, b)[..., 0]
+    return _delta_e_map(a, b, w, method)
+
+
+def _delta_e_map(a, b, white, method):
+    """dE map of two checked XYZ images under a checked white, by chunks of pixels: two Lab images and
+    their difference never exist at full size."""
+    return map_pixels(lambda x, y: delta_e_lab(_xyz_to_lab(x, white), _xyz_to_lab(y, white), method)[:, None],
+                      a, b)[..., 0]

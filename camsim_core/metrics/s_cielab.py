@@ -64,9 +64,8 @@ import math
 import numpy as np
 import scipy.fft
 
-from .._chunks import map_pixels
 from ..errors import ParameterError
-from .cielab import _method, _xyz_to_lab, check_pair, check_white, check_xyz, delta_e_lab
+from .cielab import _delta_e_map, _method, _xyz_to_lab, check_pair, check_white, check_xyz
 
 __all__ = [
     "XYZ_TO_OPPONENT",
@@ -393,7 +392,5 @@ def scielab(xyz1, xyz2, samples_per_degree, white, *, method="CIE 1976"):
     if a.ndim != 3:
         raise ParameterError("xyz1", f"must be an (H, W, 3) image, got shape {a.shape}")
     # one image at a time: its opponent planes are filtered in place, band by band; then Lab and the
-    # difference by chunks of pixels (two full-size Lab images never exist)
-    f1 = _scielab_filter(a, spd)
-    f2 = _scielab_filter(b, spd)
-    return map_pixels(lambda x, y: delta_e_lab(_xyz_to_lab(x, w), _xyz_to_lab(y, w), method)[:, None], f1, f2)[..., 0]
+    # difference by chunks of pixels
+    return _delta_e_map(_scielab_filter(a, spd), _scielab_filter(b, spd), w, method)
