@@ -401,7 +401,7 @@ def test_light_level_and_diffraction_optics_from_the_sidebar(page):
     assert "mean level 6 %" in page.text(".camsim-warnings")  # a quarter of the default's 25 %
     page.select("w-optics", "diffraction")
     blurred = page.wait_for(lambda s: s["params"]["optics"] == "diffraction" and not s["computing"])
-    assert blurred["ran"][0][0] == "stage:optics" and blurred["raw_hash"] != dim["raw_hash"]
+    assert blurred["ran"][0][0] == "stage:lens_sensor_responses" and blurred["raw_hash"] != dim["raw_hash"]
     assert page.alert_text() == "" and page.errors() == []
 
 

@@ -451,7 +451,7 @@ def test_diffraction_optics_from_the_explorer_blurs_the_raw(state):
     state.f_stop = 32.0  # the smallest aperture offered: the widest diffraction blur
     sharp = np.asarray(state.result.raw.data, float)
     state.optics = "diffraction"
-    assert state.result.camera.optics == "diffraction" and "stage:optics" in [n for n, _ in state.result.ran]
+    assert state.result.camera.optics == "diffraction" and "stage:lens_sensor_responses" in [n for n, _ in state.result.ran]
     blurred = np.asarray(state.result.raw.data, float)
 
     def detail(a):  # energy of the differences between neighbours of the same sensor (a 2 x 2 tile apart)

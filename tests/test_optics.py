@@ -6,7 +6,7 @@ import pytest
 import camsim_core as cs
 from camsim_core.datasets.sensors import Sensors
 from camsim_core.image import image_from_scene
-from camsim_core.optics import defocus_otf, diffraction_mtf, optics
+from camsim_core.optics import defocus_otf, diffraction_mtf, lens_sensor_responses, optics
 from camsim_core.scene import Scene
 
 H_C = 6.62607015e-34 * 299792458.0
@@ -167,7 +167,7 @@ def test_quantal_camera_receives_the_camera_equation_irradiance():
 def test_default_camera_has_no_optics_stage_and_is_unchanged(cacaphony, dcs200_ir):
     assert dcs200_ir.optics == "none" and dcs200_ir.architecture == cs.DEFAULT_ARCHITECTURE
     cam = dcs200_ir.replace(optics="diffraction")
-    assert cam.architecture[0] is optics and cam.architecture[1:] == cs.DEFAULT_ARCHITECTURE
+    assert cam.architecture == (lens_sensor_responses,) + cs.DEFAULT_ARCHITECTURE[1:]  # the lens fused with the sensor stage
     plain = cs.simulate(cacaphony, dcs200_ir.replace(bits=None))
     again = cs.simulate(cacaphony, dcs200_ir.replace(bits=None, architecture=(optics,) + cs.DEFAULT_ARCHITECTURE))
     assert np.array_equal(plain.data, again.data)

@@ -21,9 +21,10 @@ from ..datasets.sensors import Sensors
 from ..errors import ParameterError
 from ..image import check_tile
 from ..optics.diffraction import MIN_F_NUMBER
+from ..optics.fused import lens_sensor_responses
 from ..optics.stage import check_optics_fields, optics as optics_stage, optics_active
 from ..simulation.electrons import check_sensor_fields
-from ..simulation import DEFAULT_ARCHITECTURE
+from ..simulation import DEFAULT_ARCHITECTURE, sensor_responses
 from ..spectra import Spectrum
 
 __all__ = ["Camera", "NOISE_MODELS"]
@@ -118,6 +119,14 @@ class Camera:
     seed : int or None
         Seed of the noise generator; the same seed gives the same noise.
     architecture : tuple of stages
+        Applied in order by :func:`~camsim_core.simulation.simulate`. A camera
+        whose optics are on (diffraction, transmittance, relative illumination
+        or vignetting) and whose architecture names no lens stage gets one: in
+        place of ``sensor_responses``, the fused
+        :func:`~camsim_core.optics.fused.lens_sensor_responses` (the same
+        image within 0.1 % of the blur's MTF, without spectral planes at the sensor);
+        without a ``sensor_responses`` stage, the ``optics`` stage first. Name
+        ``optics`` before ``sensor_responses`` for the spectral planes at the sensor.
     """
 
     sensors: Sensors
@@ -214,8 +223,12 @@ class Camera:
         check_optics_fields(self)
         check_sensor_fields(self)
         architecture = tuple(self.architecture)
-        if optics_active(self) and optics_stage not in architecture:
-            architecture = (optics_stage,) + architecture  # the lens acts on the spectral planes, first
+        if optics_active(self) and optics_stage not in architecture and lens_sensor_responses not in architecture:
+            if sensor_responses in architecture:
+                # the lens fused with the sensor responses: the same image, without spectral planes at the sensor
+                architecture = tuple(lens_sensor_responses if s is sensor_responses else s for s in architecture)
+            else:
+                architecture = (optics_stage,) + architecture  # the lens acts on the spectral planes, first
         object.__setattr__(self, "architecture", architecture)
 
     def replace(self, **changes):

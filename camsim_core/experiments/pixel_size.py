@@ -140,7 +140,8 @@ def camera(pitch_um, lux=1000.0, seed=0):
     """The sweep's camera at ``pitch_um`` (um): the scaling of the module docstring, a patch of the sensor."""
     from ..camera import Camera
     from ..camera.physical import qe_sensors, read_sensor_sheet, SENSOR_SHEETS
-    from ..simulation import bayer
+    from ..optics import optics
+    from ..simulation import DEFAULT_ARCHITECTURE, bayer
 
     p = float(pitch_um)
     sheet = read_sensor_sheet(str(SENSOR_SHEETS / "phone-1.4um.json"))
@@ -170,6 +171,9 @@ def camera(pitch_um, lux=1000.0, seed=0):
         prnu=PRNU,
         black_level=16.0,
         seed=seed,
+        # the optics stage by itself: its spectral planes at the sensor are blurred once and kept for every
+        # light level and seed (the stages after it are run on them)
+        architecture=(optics,) + DEFAULT_ARCHITECTURE,
     )
 
 

@@ -79,11 +79,21 @@ def _plane_otfs(shape, pitch, wavelengths, f_number, defocus, dtype):
     return out
 
 
-def _compute_otfs(shape, pitch, wavelengths, f_number, defocus):
+def radial_frequency(shape, pitch):
+    """(H, W//2 + 1) radial frequency, cycles/mm, of the real-FFT grid of an (H, W) plane sampled every ``pitch`` m."""
     h, w = shape
     fy = sfft.fftfreq(h, d=pitch[0] * 1e3)  # cycles/mm
     fx = sfft.rfftfreq(w, d=pitch[1] * 1e3)
-    rho = np.hypot(fy[:, None], fx[None, :])
+    return np.hypot(fy[:, None], fx[None, :])
+
+
+def _compute_otfs(shape, pitch, wavelengths, f_number, defocus):
+    return otfs_at(radial_frequency(shape, pitch), wavelengths, f_number, defocus)
+
+
+def otfs_at(rho, wavelengths, f_number, defocus=None):
+    """(N,) + rho.shape: the OTF at radial frequencies ``rho`` (cycles/mm) for each wavelength (nm);
+    ``defocus`` W020 in waves per wavelength, or None."""
     wl = np.asarray(wavelengths, float)
     if defocus is None or not np.any(defocus):
         return np.stack([diffraction_mtf(rho, lam, f_number) for lam in wl])
@@ -101,6 +111,21 @@ def _margin(n, pitch_mm, wavelength_mm, f_number, waves):
     return int(min(n, np.ceil(reach / pitch_mm) + 2))
 
 
+def padded_grid(shape, pitch, wavelengths, f_number, defocus=None):
+    """((my, mx), (hp, wp)): the margins and padded size of an (H, W) image blurred in the frequency domain.
+
+    The margins reach as far as the widest PSF (the longest wavelength's,
+    with the largest defocus), so that the mirror padding, not a wrap-around,
+    is what the blur sees past the edges; the padded sizes are fast real-FFT lengths.
+    """
+    h, w = shape
+    wl_mm = float(np.max(wavelengths)) * 1e-6
+    wmax = float(np.max(np.abs(defocus))) if defocus is not None else 0.0
+    my = _margin(h, pitch[0] * 1e3, wl_mm, f_number, wmax)
+    mx = _margin(w, pitch[1] * 1e3, wl_mm, f_number, wmax)
+    return (my, mx), (sfft.next_fast_len(h + 2 * my, real=True), sfft.next_fast_len(w + 2 * mx, real=True))
+
+
 def blur_planes(data, wavelengths, pitch, f_number, defocus=None):
     """Each plane of ``data`` (H, W, N) blurred by its wavelength's OTF, in the frequency domain.
 
@@ -114,11 +139,7 @@ def blur_planes(data, wavelengths, pitch, f_number, defocus=None):
     dtype = np.float32 if data.dtype == np.float32 else np.float64
     h, w, n = data.shape
     wl = np.asarray(wavelengths, float)
-    wmax = float(np.max(np.abs(defocus))) if defocus is not None else 0.0
-    my = _margin(h, pitch[0] * 1e3, wl.max() * 1e-6, f_number, wmax)
-    mx = _margin(w, pitch[1] * 1e3, wl.max() * 1e-6, f_number, wmax)
-    hp = sfft.next_fast_len(h + 2 * my, real=True)
-    wp = sfft.next_fast_len(w + 2 * mx, real=True)
+    (my, mx), (hp, wp) = padded_grid((h, w), pitch, wl, f_number, defocus)
     planes = _mirror_padded(data, dtype, (my, hp - h - my), (mx, wp - w - mx))
     otf = plane_otfs((hp, wp), pitch, wl, f_number, defocus, dtype)
     spectrum = sfft.rfft2(planes, axes=(1, 2), overwrite_x=True, workers=_FFT_WORKERS)
@@ -152,14 +173,31 @@ def _mirror_padded(data, dtype, pad_y, pad_x):
     for r0 in range(0, h, rows):
         r1 = min(h, r0 + rows)
         out[:, top + r0 : top + r1, left : left + w] = np.moveaxis(data[r0:r1], 2, 0)
+    return reflect_margins(out, pad_y, pad_x)
+
+
+def reflect_margins(out, pad_y, pad_x, axes=(1, 2)):
+    """Fill the margins of ``out``, whose interior holds the planes, by mirror reflection (edge sample
+    repeated), in place; ``axes`` the (y, x) axes (planes first, (N, H, W), by default); pads no wider
+    than the interior. Returns ``out``."""
+    (top, bottom), (left, right) = pad_y, pad_x
+    ay, ax = axes
+    h = out.shape[ay] - top - bottom
+    w = out.shape[ax] - left - right
+
+    def at(axis, start, stop, step=None):
+        index = [slice(None)] * out.ndim
+        index[axis] = slice(start, stop, step)
+        return tuple(index)
+
     if top:
-        out[:, :top] = out[:, top : 2 * top][:, ::-1]
+        out[at(ay, None, top)] = out[at(ay, top, 2 * top)][at(ay, None, None, -1)]
     if bottom:
-        out[:, top + h :] = out[:, top + h - bottom : top + h][:, ::-1]
+        out[at(ay, top + h, None)] = out[at(ay, top + h - bottom, top + h)][at(ay, None, None, -1)]
     if left:
-        out[:, :, :left] = out[:, :, left : 2 * left][:, :, ::-1]
+        out[at(ax, None, left)] = out[at(ax, left, 2 * left)][at(ax, None, None, -1)]
     if right:
-        out[:, :, left + w :] = out[:, :, left + w - right : left + w][:, :, ::-1]
+        out[at(ax, left + w, None)] = out[at(ax, left + w - right, left + w)][at(ax, None, None, -1)]
     return out
 
 
@@ -177,6 +215,33 @@ def relative_illumination_map(camera, image):
     return ri
 
 
+def blur_geometry(camera, image):
+    """(pitch, defocus): the image's sample spacing at the sensor (dy, dx) in m, and W020 in waves per
+    plane (None when in focus), for the camera's diffraction blur."""
+    d = camera.distance if camera.distance is not None else image.distance
+    pitch = sample_pitch(image.angular_resolution, image.distance, d, camera.focal_length)
+    wl = np.asarray(image.wavelengths, float)
+    waves = defocus_waves(camera.defocus, wl, camera.f_stop, camera.focal_length) if camera.defocus else None
+    return pitch, waves
+
+
+def photometry(camera, image):
+    """The lens's factors on the light, apart from the blur: (spectral, spatial, scalar).
+
+    ``spectral`` (N,): the lens transmittance at the image's wavelengths, or
+    None; ``spatial`` (H, W): cos^4 relative illumination times vignetting at
+    each pixel, or None; ``scalar``: (1 + m)^-2 of the working f-number for
+    quantal sensors (see the module docstring), else 1. Their product is what
+    the optics stage multiplies the blurred planes by; the fused lens stage
+    (:mod:`.fused`) folds ``spectral`` into the sensor weights instead.
+    """
+    d = camera.distance if camera.distance is not None else image.distance
+    spectral = None if camera.lens_transmittance is None else camera.lens_transmittance.on(np.asarray(image.wavelengths, float))
+    spatial = relative_illumination_map(camera, image) if camera.relative_illumination or camera.vignetting > 0 else None
+    scalar = 1.0 / (1.0 + magnification(camera.focal_length, d)) ** 2 if camera.sensors.unit == "Quanta" else 1.0
+    return spectral, spatial, scalar
+
+
 @stage("optics", "defocus", "f_stop", "focal_length", "distance", "lens_transmittance", "relative_illumination",
        "vignetting", "height", "width", "pixel_size", "sensors")
 def optics(camera, image):
@@ -189,23 +254,20 @@ def optics(camera, image):
         return image
     if image.space != "spectral" or image.mosaiced:
         raise ParameterError("optics", f"acts on the spectral planes of the scene: put it before sensor_responses (got a {image.space} image)")
-    d = camera.distance if camera.distance is not None else image.distance
     data = image.data if image.data.dtype == np.float32 else np.asarray(image.data, float)  # float32 stays float32
     squeeze = data.ndim == 2
     if squeeze:
         data = data[:, :, None]
     wl = np.asarray(image.wavelengths, float)
     if camera.optics == "diffraction":
-        pitch = sample_pitch(image.angular_resolution, image.distance, d, camera.focal_length)
-        waves = defocus_waves(camera.defocus, wl, camera.f_stop, camera.focal_length) if camera.defocus else None
+        pitch, waves = blur_geometry(camera, image)
         data = blur_planes(data, wl, pitch, camera.f_stop, waves)
-    factor = 1.0
-    if camera.lens_transmittance is not None:
-        factor = camera.lens_transmittance.on(wl)[None, None, :]
-    if camera.relative_illumination or camera.vignetting > 0:
-        factor = factor * relative_illumination_map(camera, image)[:, :, None]
-    if camera.sensors.unit == "Quanta":
-        factor = factor / (1.0 + magnification(camera.focal_length, d)) ** 2
+    spectral, spatial, scalar = photometry(camera, image)
+    factor = scalar
+    if spectral is not None:
+        factor = factor * spectral[None, None, :]
+    if spatial is not None:
+        factor = factor * spatial[:, :, None]
     if not (np.isscalar(factor) and factor == 1.0):
         data = data * np.asarray(factor, data.dtype)  # in the data's dtype: float32 stays float32
     if squeeze:

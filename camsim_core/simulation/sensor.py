@@ -62,6 +62,27 @@ def sensor_responses(camera, image):
     outside their measured range. A float32 scene gives float32 responses
     (relative error ~1e-7, far below any sensor's noise).
     """
+    return respond(camera, image, weighted_sum)
+
+
+def weighted_sum(data, weights):
+    """(H, W, K) responses of (H, W, N) ``data``: ``data @ weights`` in the data's dtype."""
+    h, w, n = data.shape
+    # in the scene's own dtype: float32 weights for a float32 scene (no float64 copy of the cube)
+    return (data.reshape(h * w, n) @ weights.astype(data.dtype, copy=False)).reshape(h, w, -1)
+
+
+def respond(camera, image, combine):
+    """The sensor stage's output image, its data ``combine(data, weights)``.
+
+    ``data`` is the (H, W, N) spectral image (float32 kept, anything else
+    float64) and ``weights`` the (N, K) sensor weights with the gain
+    (:func:`sensor_weights`). :func:`sensor_responses` combines them by a
+    plain weighted sum; the lens stage that fuses diffraction with the
+    responses (:mod:`camsim_core.optics.fused`) by a blurred one. Everything
+    else about the result (units, gain, the sensitivities rendering inverts)
+    is set here, once.
+    """
     if image.space != "spectral":
         raise ParameterError("sensor_responses", f"needs spectral planes, but the image is already in {image.space!r} space")
     weights, gain = sensor_weights(camera, image.wavelengths)
@@ -74,12 +95,9 @@ def sensor_responses(camera, image):
     data = image.data
     if data.dtype != np.float32:
         data = np.asarray(data, np.float64)
-    h, w, n = data.shape
-    # in the scene's own dtype: float32 weights for a float32 scene (no float64 copy of the cube)
-    out = (data.reshape(h * w, n) @ weights.astype(data.dtype, copy=False)).reshape(h, w, -1)
     return image.then(
         "sensor_responses",
-        data=out,
+        data=combine(data, weights),
         sensitivities=sensitivities,
         sensor_names=camera.sensors.names,
         exposure=camera.exposure,
