@@ -9,7 +9,7 @@ PORT   ?= 5006
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e ".[app,test]"
+	$(PY) -m pip install --quiet -e ".[app,test,detect]"
 	touch $@
 
 install: $(VENV)/.installed

@@ -25,6 +25,9 @@ def register(subparsers):
     p.add_argument("--image", help="measure this file instead of simulating (DNG/raw, PNG, TIFF)")
     p.add_argument("--what", help="comma-separated: mtf, snr, color, similarity (default: by scene)")
     p.add_argument("--roi", help="y0,y1,x0,x1 region of an --image to measure")
+    p.add_argument("--patches", choices=("layout", "detect"),
+                   help="colour accuracy: the chart generator's patch layout, or a chart detected in the image "
+                   "(default: layout for the macbeth scene, detect for any other)")
     p.add_argument("--snr-vs-light", dest="snr_vs_light", metavar="L1,L2,...",
                    help="SNR (dB) of the camera on uniform fields of these luminances, cd/m^2 (at the given exposure)")
     p.add_argument("--distance", type=float)
@@ -117,7 +120,8 @@ def _print(report):
             print(f"  {k:<20} {v['mean']:9.2f}   {v['sigma']:9.3f}   {v['snr_db']:7.2f}{flag}")
     if "color" in report:
         c = report["color"]
-        print(f"Macbeth CIEDE2000 vs ideal: mean {c['mean']:.2f}, max {c['max']:.2f}")
+        where = {"detected": "patches detected in the image", "layout": "patches from the chart's layout"}.get(c.get("patches"), "")
+        print(f"Macbeth CIEDE2000 vs ideal: mean {c['mean']:.2f}, max {c['max']:.2f} ({where})")
         for r in range(4):
             print("  " + "  ".join(f"{v:5.2f}" for v in c["per_patch"][6 * r : 6 * r + 6]))
     if "similarity" in report:
@@ -148,7 +152,7 @@ def run(args):
         cam = cam.replace(**changes)
         cam = cam.replace(exposure=args.exposure if args.exposure is not None else auto_exposure(scene, cam))
         report = quality_report(scene, cam, what or default_measures(scene.name), demosaic=args.demosaic,
-                                monitor=args.monitor)
+                                monitor=args.monitor, patches=args.patches)
     _print(report)
     if args.json_out:
         text = json.dumps(report, indent=1, default=float)

@@ -38,12 +38,14 @@ def _central(shape, fraction=0.5):
     return (dy, h - dy, dx, w - dx)
 
 
-def measure_images(what, *, raw, demosaiced=None, rendered=None, ideal=None, monitor="simtoolbox-test"):
+def measure_images(what, *, raw, demosaiced=None, rendered=None, ideal=None, monitor="simtoolbox-test", patches="layout"):
     """The measures ``what`` on images already simulated and processed (the explorer's pipeline result).
 
     ``raw``: the camera image (SNR); ``demosaiced``: full sensor planes (MTF;
     ``raw`` itself when not mosaiced); ``rendered`` and ``ideal``: rendered
-    monitor images (colour, similarity). Returns the JSON-ready dict of
+    monitor images (colour, similarity); ``patches``: where the chart's
+    patches come from ("layout" of the chart generator, or "detect"ed in the
+    ideal image, see :func:`~camsim_core.metrics.chart.macbeth_delta_e`). Returns the JSON-ready dict of
     :func:`quality_report` without the scene and camera names.
     """
     from ..monitor import load_monitor
@@ -72,9 +74,9 @@ def measure_images(what, *, raw, demosaiced=None, rendered=None, ideal=None, mon
         roi = _central(raw.data.shape)
         out["snr"] = {"roi": list(roi), "channels": region_snr(raw, roi)}
     if "color" in what:
-        d = macbeth_delta_e(rendered, ideal, mon)
+        d = macbeth_delta_e(rendered, ideal, mon, patches=patches)
         out["color"] = {"method": "CIE 2000", "per_patch": d["per_patch"].tolist(), "mean": d["mean"], "max": d["max"],
-                        "boxes": [list(b) for b in d["boxes"]]}
+                        "boxes": [list(b) for b in d["boxes"]], "patches": d["patches"]}
     if "similarity" in what:
         x1, x2 = to_xyz(rendered, mon), to_xyz(ideal, mon)
         out["similarity"] = {"psnr_db": psnr(rendered, ideal), "ssim": ssim(rendered, ideal),
@@ -82,8 +84,14 @@ def measure_images(what, *, raw, demosaiced=None, rendered=None, ideal=None, mon
     return out
 
 
-def quality_report(scene, camera, what=None, *, demosaic="bilinear", monitor="simtoolbox-test", **simulate_kwargs):
-    """Simulate ``camera`` on ``scene`` and measure ``what`` (names of :data:`MEASURES`; default by scene name)."""
+def quality_report(scene, camera, what=None, *, demosaic="bilinear", monitor="simtoolbox-test", patches=None,
+                   **simulate_kwargs):
+    """Simulate ``camera`` on ``scene`` and measure ``what`` (names of :data:`MEASURES`; default by scene name).
+
+    ``patches`` (colour accuracy): "layout" or "detect"; by default the
+    generator's layout for the Macbeth chart scene, and a chart found in
+    the image for any other scene (a photo with a chart in it).
+    """
     from .. import demosaic as run_demosaic
     from .. import ideal_image, load_camera, load_monitor, load_scene, render, simulate
 
@@ -101,5 +109,7 @@ def quality_report(scene, camera, what=None, *, demosaic="bilinear", monitor="si
         rendered = render(full, mon)
         ideal = ideal_image(scene, cam, mon, **simulate_kwargs)
     out = {"scene": scene.name, "camera": cam.name}
-    out.update(measure_images(names, raw=raw, demosaiced=full, rendered=rendered, ideal=ideal, monitor=mon))
+    if patches is None:
+        patches = "layout" if str(scene.name).lower() == "macbeth" else "detect"
+    out.update(measure_images(names, raw=raw, demosaiced=full, rendered=rendered, ideal=ideal, monitor=mon, patches=patches))
     return out
