@@ -93,6 +93,10 @@ class ServerLimits:
     max_chart_values : int
         Largest test chart a session may ask for, pixels x wavelengths, default 16.3 million
         (a 724 x 724 x 31 chart; the shipped charts are at most 512 x 512).
+    max_view_side : int
+        Most pixels along either side of the image an image view sends the browser, default 1280:
+        a larger result is shown by block means of its pixels, and zooming in fetches the region
+        in view at up to this detail (the full array is never sent).
     """
 
     upload: UploadLimits = field(default_factory=UploadLimits)
@@ -103,6 +107,7 @@ class ServerLimits:
     max_json_depth: int = 4
     max_uploads: int = 3
     max_chart_values: int = 724 * 724 * 31
+    max_view_side: int = 1280
 
 
 #: The limits in force in this process (``camsim serve`` replaces them).

@@ -20,7 +20,7 @@ from functools import partial
 import colour
 import numpy as np
 import panel as pn
-from bokeh.events import SelectionGeometry, Tap
+from bokeh.events import RangesUpdate, SelectionGeometry, Tap
 from bokeh.models import (BoxSelectTool, ColumnDataSource, CustomJSHover, DataRange1d, HoverTool,
                           LinearColorMapper, Range1d, Span, TapTool)
 from bokeh.palettes import Category10, Greys256, Inferno256
@@ -28,12 +28,14 @@ from bokeh.plotting import figure
 from panel.models.markup import HTML as HTMLModel
 
 from camsim_core.cache import fingerprint
+from camsim_core.screen import to_screen
 from camsim_core.simulation import tile_index_map
 
+from . import state as state_module
 from .state import exposure_warnings, mean_level
 
 
-__all__ = ["sensor_colors", "scene_srgb", "raw_rgb", "planes_rgb", "rgba32", "histogram", "de_range",
+__all__ = ["sensor_colors", "scene_srgb", "raw_rgb", "planes_rgb", "rgba32", "screen_part", "histogram", "de_range",
            "ResultsView", "SceneView", "CameraView"]
 
 #: The fixed dE colour scale (an option, for comparing designs); by default the scale follows the data.
@@ -246,6 +248,29 @@ def planes_rgba(image):
 def monitor_rgba(image):
     """:func:`monitor_u8` packed for Bokeh (:func:`rgba32`): the rendered and ideal views' data."""
     return rgba32(monitor_u8(image))
+
+
+def screen_block(shape, side):
+    """Image pixels per view pixel that fit an image of ``shape`` into ``side`` x ``side`` (1: as it is)."""
+    return max(1, -(-int(shape[0]) // side), -(-int(shape[1]) // side))
+
+
+def screen_part(array, side, region=None):
+    """What a view sends of a display array (bottom row first): the part ``region`` (top, left, height,
+    width; default the whole), as it is when it fits ``side`` x ``side``, else as block means of its pixels
+    (:func:`camsim_core.screen.to_screen`; packed RGBA averaged per channel). Returns (part, block)."""
+    a = np.asarray(array)
+    top, left, height, width = (0, 0) + a.shape[:2] if region is None else region
+    part = a[top : top + height, left : left + width]
+    block = screen_block(part.shape, side)
+    if block == 1:
+        return np.ascontiguousarray(part), 1
+    if a.dtype == np.uint32:  # packed RGBA: the four 8-bit channels averaged, then packed again
+        channels = np.ascontiguousarray(part).view(np.uint8).reshape(part.shape + (4,))
+        view, block = to_screen(channels, (side, side))
+        return np.ascontiguousarray(np.rint(view, out=view).astype(np.uint8)).view(np.uint32)[..., 0], block
+    view, block = to_screen(part.astype(np.float32, copy=False), (side, side))
+    return view, block
 
 
 def histogram(values, bins=40, p995=None):
@@ -463,6 +488,12 @@ class ResultsView:
         self._busy_shown = False
         self._computations = 0
         self._memos = {}
+        # a result larger than the screen: the views send block means of it, and the region in view (top, left,
+        # height, width of the image, bottom row first; None: the whole) in more detail when zoomed in
+        self.region = None
+        self._full = {}  # key -> (display array, extra columns, sensor names) at full resolution
+        self._screens = {}  # key -> (display array, side, its whole-image view): see _whole
+        self.figures["rendered"].on_event(RangesUpdate, self._on_ranges)  # one event per zoom or pan (ranges are shared)
         state.param.watch(self._on_state, ["result", "metric", "de_scale", "computing", "message"])
         state.preparers.append(self.prepare)
         self.update()
@@ -475,6 +506,10 @@ class ResultsView:
         stays within ``ASPECT_TOLERANCE`` of it: the image then fills the
         frame's width or height, with a margin of at most 10 % on the other.
         """
+        if self.region is not None:  # the whole image again, as block means if it does not fit the screen
+            self.region = None
+            for key in self._full:
+                self._send_screen(key)
         h, w = self.shape
         if w / h >= self.frame_aspect:  # as wide or wider: full width
             extra = w / self.frame_aspect - h
@@ -485,17 +520,100 @@ class ResultsView:
             self.x_range.update(start=-extra / 2, end=w + extra / 2)
             self.y_range.update(start=0, end=h)
 
-    def _send(self, key, image, **extra):
-        """Replace an image view's data; only the columns that changed go to the browser."""
+    def _send(self, key, image, place=None, **extra):
+        """Replace an image view's data; only the columns that changed go to the browser.
+
+        ``place`` (x, y, dw, dh): where the image lies, in image pixels (default: at the origin, its own size).
+        """
         h, w = image.shape[:2]
+        x, y, dw, dh = place if place is not None else (0, 0, w, h)
         src = self.sources[key]
         new = dict(image=[image], **extra)
-        if src.data["dw"] != [w] or src.data["dh"] != [h] or set(src.data) != set(new) | {"x", "y", "dw", "dh"}:
-            src.data = dict(new, x=[0], y=[0], dw=[w], dh=[h])
+        if ([src.data[k] for k in ("x", "y", "dw", "dh")] != [[x], [y], [dw], [dh]]
+                or set(src.data) != set(new) | {"x", "y", "dw", "dh"}):
+            src.data = dict(new, x=[x], y=[y], dw=[dw], dh=[dh])
             return
         changed = {k: v for k, v in new.items() if not _same_column(src.data[k], v)}
         if changed:
             src.data.update(changed)
+
+    def _show(self, key, image, names=None, **extra):
+        """Show a display array (bottom row first) in view ``key``: what of it fits the screen (:meth:`_send_screen`)."""
+        self._full[key] = (image, extra, names)
+        self._send_screen(key)
+
+    def _send_screen(self, key):
+        """Send view ``key`` the region in view of its image, as it is or as block means when it does not fit
+        ``LIMITS.max_view_side`` (a 12-megapixel result is never sent whole). The raw's hover then gives the
+        block's mean value, and names the block instead of a sensor."""
+        image, extra, names = self._full[key]
+        h, w = image.shape[:2]
+        if self.region is None:
+            region, (view, columns, block) = (0, 0, h, w), self._whole(key, image, extra)
+        else:
+            top, left, height, width = self.region
+            region = (top, left, min(height, h - top), min(width, w - left))
+            view, columns, block = self._screen(image, extra, region)
+        if key == "raw":
+            self.sensor_hover.args = dict(names=names if block == 1 else
+                                          [f"mean of {block} x {block} pixels (zoom in for each pixel)"])
+        self._send(key, view, place=(region[1], region[0], region[3], region[2]), **{k: [v] for k, v in columns.items()})
+
+    @staticmethod
+    def _screen(image, extra, region):
+        """(view, extra columns, block) of a display array's ``region`` (:func:`screen_part`)."""
+        side = state_module.LIMITS.max_view_side
+        view, block = screen_part(image, side, region)
+        columns = {}
+        for name, values in extra.items():
+            if name == "sensor" and block > 1:  # a block holds several sensors
+                columns[name] = np.zeros(view.shape[:2], np.uint8)
+            else:
+                columns[name] = screen_part(values, side, region)[0]
+        return view, columns, block
+
+    def _whole(self, key, image, extra):
+        """The whole-image view of a display array, kept while the array is the same: made in the computing
+        thread by :meth:`prepare` (block means of a large image take ~80 ms a view), sent by the event loop."""
+        side = state_module.LIMITS.max_view_side
+        held = self._screens.get(key)
+        if held is None or held[0] is not image or held[1] != side:
+            held = self._screens[key] = (image, side, self._screen(image, extra, (0, 0) + image.shape[:2]))
+        return held[2]
+
+    def _on_ranges(self, event):
+        self.zoom_to(event.x0, event.x1, event.y0, event.y1)
+
+    def zoom_to(self, x0, x1, y0, y1):
+        """The views now show image pixels x0..x1, y0..y1 (y up): send that region in the detail the
+        screen allows, with a margin (half the view on each side, as far as the detail allows) so that a small
+        pan needs nothing new. Nothing to do for an image that fits the screen whole."""
+        if x0 is None or x1 is None or y0 is None or y1 is None:
+            return
+        h, w = self.shape
+        side = state_module.LIMITS.max_view_side
+        whole = screen_block((h, w), side)
+        vx0, vx1 = max(0.0, min(x0, x1)), min(float(w), max(x0, x1))
+        vy0, vy1 = max(0.0, min(y0, y1)), min(float(h), max(y0, y1))
+        if (whole == 1 and self.region is None) or vx1 <= vx0 or vy1 <= vy0:
+            return
+        need = screen_block((np.ceil(vy1 - vy0), np.ceil(vx1 - vx0)), side)
+        region = None
+        if need < whole:
+            my = max(0.0, min((vy1 - vy0) / 2, (need * side - (vy1 - vy0)) / 2 - 1))
+            mx = max(0.0, min((vx1 - vx0) / 2, (need * side - (vx1 - vx0)) / 2 - 1))
+            top, left = int(max(0, np.floor(vy0 - my))), int(max(0, np.floor(vx0 - mx)))
+            bottom, right = int(min(h, np.ceil(vy1 + my))), int(min(w, np.ceil(vx1 + mx)))
+            region = (top, left, bottom - top, right - left)
+            if self.region is not None:  # the region shown already holds the view in as much detail: keep it
+                t, l, rh, rw = self.region
+                if t <= vy0 and l <= vx0 and t + rh >= vy1 and l + rw >= vx1 and screen_block((rh, rw), side) <= need:
+                    return
+        if region == self.region:
+            return
+        self.region = region
+        for key in self._full:
+            self._send_screen(key)
 
     def _resize(self, shape):
         """A new image size: refit the views; reshape the frames only for a clearly different aspect ratio
@@ -503,6 +621,7 @@ class ResultsView:
         if tuple(shape) == self.shape:
             return
         self.shape = tuple(shape)
+        self.region = None  # a region of the old image means nothing in the new one
         aspect = shape[1] / shape[0]
         if max(aspect / self.frame_aspect, self.frame_aspect / aspect) > ASPECT_TOLERANCE:
             self.frame_aspect = aspect
@@ -548,15 +667,16 @@ class ResultsView:
         """Every display array of a new result (``ExplorerState.preparers``: runs in the computing thread)."""
         if res is None or res.raw is None:
             return
-        self._memo("raw_view", res.raw, self._raw_view)
+        raw = self._memo("raw_view", res.raw, self._raw_view)
+        self._whole("raw", raw["image"], dict(value=raw["value"], sensor=raw["sensor"]))
         if res.demosaiced is not None:
-            self._memo("demosaiced_view", res.demosaiced, planes_rgba)
+            self._whole("demosaiced", self._memo("demosaiced_view", res.demosaiced, planes_rgba), {})
         for key in ("rendered", "ideal"):
             if getattr(res, key) is not None:
-                self._memo(f"{key}_view", getattr(res, key), monitor_rgba)
+                self._whole(key, self._memo(f"{key}_view", getattr(res, key), monitor_rgba), {})
         de, _ = self.error_map(res)
         if de is not None:
-            self._memo("de_view", de, self._de_view)
+            self._whole("de", self._memo("de_view", de, self._de_view)["image"], {})
         self._memo("exposure", res.raw, exposure_warnings)
         self._memo("level", res.raw, mean_level)
         self._memo("raw_hash", res.raw, digest)
@@ -570,20 +690,19 @@ class ResultsView:
         self._resize(raw.data.shape[:2])
         if self._changed("raw", raw):
             view = self._memo("raw_view", raw, self._raw_view)
-            self.sensor_hover.args = dict(names=view["names"])
-            self._send("raw", view["image"], value=[view["value"]], sensor=[view["sensor"]])
+            self._show("raw", view["image"], names=view["names"], value=view["value"], sensor=view["sensor"])
         skipped = "demosaic" in getattr(res, "skipped", {})
         self.labels["demosaiced"].object = ("Demosaicing not needed (full-colour image): the sensor planes"
                                             if skipped else f"<span title='{_LINEAR_NOTE}'>Demosaiced "
                                                            f"({self.state.shown.get('demosaic_method', '')})</span>")
         shape = raw.data.shape[:2]
         if self._changed("demosaiced", res.demosaiced):
-            self._send("demosaiced", self._memo("demosaiced_view", res.demosaiced, planes_rgba)
+            self._show("demosaiced", self._memo("demosaiced_view", res.demosaiced, planes_rgba)
                        if res.demosaiced is not None else _unavailable(shape))
         for key in ("rendered", "ideal"):
             img = getattr(res, key)
             if self._changed(key, img):
-                self._send(key, self._memo(f"{key}_view", img, monitor_rgba) if img is not None else _unavailable(shape))
+                self._show(key, self._memo(f"{key}_view", img, monitor_rgba) if img is not None else _unavailable(shape))
             self.labels[key].object = self.TITLES[key] + ("" if img is not None else " (not available)")
         de, label = self.error_map(res)
         mean = med = None
@@ -592,7 +711,7 @@ class ResultsView:
             lo, hi = view["data_range"] if self.state.de_scale == "data" else DE_RANGE
             self.colour_bar.set(lo, hi)
             if self._changed("de", de):
-                self._send("de", view["image"])
+                self._show("de", view["image"])
                 edges, counts = view["edges"], view["counts"]
                 self.hist_source.data = dict(left=edges[:-1], right=edges[1:], top=counts)
                 # ranges set here, not left to the browser (which would send them back to the server)
@@ -608,7 +727,7 @@ class ResultsView:
         else:
             self.labels["de"].object = "dE map (not available)"
             if self._changed("de", None):
-                self._send("de", np.full(shape, np.nan, np.float32))
+                self._show("de", np.full(shape, np.nan, np.float32))
         self.res_summary = (label, mean, med)
         self.show_computing()
 

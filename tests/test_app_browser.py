@@ -498,3 +498,51 @@ def test_save_and_share_downloads_what_the_page_shows_and_loads_parameters(page,
     page.page.locator(".w-json-upload input[type=file]").first.set_input_files(str(tmp_path / "bad.json"))
     page.page.wait_for_timeout(500)
     assert "not JSON" in page.alert_text() and page.params()["noise_sigma"] == 3.0
+
+
+RAW_SOURCE_JS = """() => {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
+    if (m.name === 'camsim-raw-figure') {
+      const d = m.renderers.find(g => g.data_source && g.data_source.data.dw).data_source.data;
+      const img = d.image[0];
+      return {shape: img.shape ? Array.from(img.shape) : [img.length, img[0].length],
+              x: d.x[0], y: d.y[0], dw: d.dw[0], dh: d.dh[0], x_range: [m.x_range.start, m.x_range.end]};
+    }
+  }
+  return null;
+}"""
+
+
+def test_a_result_larger_than_the_screen_is_sent_averaged_and_zooming_in_fetches_detail(browser):
+    """With views of at most 120 pixels a side, the default 233 x 372 raw arrives as 4 x 4 block means over the
+    whole image; wheel-zooming into the raw view brings the region in view in more detail, placed where it lies."""
+    with explorer_server(extra_args=["--max-view-side", "120"]) as url:
+        pg = Page(browser, url)
+        try:
+            whole = pg.page.evaluate(RAW_SOURCE_JS)
+            assert max(whole["shape"]) <= 120 and (whole["dw"], whole["dh"]) == (372, 233)
+            assert whole["dw"] / whole["shape"][1] == pytest.approx(4, rel=0.02)  # 4 image pixels a view pixel
+            for key in ("raw", "rendered"):
+                png = pg.page.locator(f".camsim-{key}-plot").first.screenshot(path=str(ARTIFACTS / f"averaged-{key}.png"))
+                assert background_share(png) < 0.5, f"the averaged {key} view is mostly blank"
+            box = pg.page.locator(".camsim-raw-plot").first.bounding_box()
+            pg.page.mouse.move(box["x"] + box["width"] * 0.4, box["y"] + box["height"] * 0.5)
+            for _ in range(3):  # about three times closer: ~120 of the 372 columns in view
+                pg.page.mouse.wheel(0, -250)
+                pg.page.wait_for_timeout(100)
+            deadline = time.monotonic() + 30
+            while True:
+                near = pg.page.evaluate(RAW_SOURCE_JS)
+                if near["dw"] < 372 and near["dw"] / near["shape"][1] < 2:
+                    break
+                assert time.monotonic() < deadline, f"no detail arrived after zooming in: {near}"
+                pg.page.wait_for_timeout(200)
+            span = near["x_range"][1] - near["x_range"][0]
+            print(f"zoomed in to {span:.0f} columns: {near}")
+            assert span < 240 and near["x"] <= near["x_range"][0] and near["x"] + near["dw"] >= near["x_range"][1]
+            pg.page.wait_for_timeout(300)
+            png = pg.page.locator(".camsim-raw-plot").first.screenshot(path=str(ARTIFACTS / "zoomed-detail-raw.png"))
+            assert background_share(png) < 0.5, "the zoomed raw view is mostly blank"
+            assert pg.errors() == []
+        finally:
+            pg.close()

@@ -68,6 +68,9 @@ def register(subparsers):
                    help="longest text field or URL value, characters (default 256)")
     g.add_argument("--max-json-kb", type=_positive_float, default=64, help="largest parameters JSON, KiB (default 64)")
     g.add_argument("--max-uploads", type=_positive_int, default=3, help="uploaded scenes a session keeps (default 3)")
+    g.add_argument("--max-view-side", type=_positive_int, default=1280,
+                   help="most pixels along a side of an image view sent to the browser; larger results are shown "
+                   "averaged, and zooming in fetches detail (default 1280)")
     g.add_argument("--session-idle", type=_positive_float, default=60.0,
                    help="seconds after its last browser tab closes that a session is freed (default 60)")
     p.set_defaults(func=run)
@@ -99,7 +102,8 @@ def limits_from(args):
         max_scene_values=args.max_scene_values,
     )
     return ServerLimits(upload=upload, max_sensors=args.max_sensors, max_tile=args.max_tile, max_text=args.max_text,
-                        max_json_bytes=int(args.max_json_kb * 1024), max_uploads=args.max_uploads)
+                        max_json_bytes=int(args.max_json_kb * 1024), max_uploads=args.max_uploads,
+                        max_view_side=args.max_view_side)
 
 
 def _lan_address():
