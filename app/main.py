@@ -256,7 +256,8 @@ def _controls(state, results):
     widths = w.TextInput.from_param(state.param.gaussian_widths, name="Gaussian widths (nm)",
                                     css_classes=["w-widths"], sizing_mode="stretch_width")
     optics = _select(state, "optics", "w-optics", "Optics")
-    optics.description = "none, or diffraction-limited blur at the f-number, per wavelength"
+    optics.description = ("preset: the camera's own lens (diffraction for the electron-level cameras, none for the "
+                          "chapter's); none; or diffraction-limited blur at the f-number, per wavelength")
     mosaic = _select(state, "mosaic", "w-mosaic", "Mosaic")
     tile = w.TextInput.from_param(state.param.custom_tile, name="Custom tile (0-based; rows split by ';')",
                                   css_classes=["w-tile"], sizing_mode="stretch_width")

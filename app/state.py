@@ -171,8 +171,9 @@ class ExplorerState(param.Parameterized):
     alpha = param.Number(default=0.5, bounds=(0.0, 1.0), step=0.1, doc="Mixture: (1 - alpha) cones + alpha DCS-200")
     gaussian_centers = param.String(default="640, 520, 460", doc="Gaussian sensor centres, nm")
     gaussian_widths = param.String(default="27", doc="Gaussian standard deviations, nm (one or one per sensor)")
-    optics = param.Selector(default="none", objects=list(OPTICS_CHOICES),
-                            doc="The lens: none, or diffraction-limited blur at the f-number (per wavelength)")
+    optics = param.Selector(default="preset", objects=list(OPTICS_CHOICES),
+                            doc="The lens: the camera's own (preset), none, or diffraction-limited blur at the f-number "
+                                "(per wavelength)")
     sensor = param.String(default="", doc="Electron-level sensor fields changed from the camera's own, "
                           "'full_well_e=8000, read_noise_e=2' (see camsim_core.camera.physical.SENSOR_FIELDS)")
     mosaic = param.Selector(default="preset", objects=list(MOSAIC_CHOICES), doc="Mosaic layout")

@@ -532,3 +532,16 @@ def test_changes_panel_queued_and_no_task_will_send_are_sent(monkeypatch):
     finally:
         pdoc._WRITE_MSGS.pop(doc, None)
         pdoc._WRITE_BLOCK.pop(doc, None)
+
+
+def test_a_camera_comes_with_its_own_lens_unless_another_is_chosen():
+    state = ExplorerState()
+    assert state.optics == "preset" and state.result.camera.optics == "none"  # the chapter's five stages
+    state.camera = "imx174"  # the sheet's lens: diffraction at the f-number
+    assert state.result.camera.optics == "diffraction" and state.result.ran_steps[0] == "stage:lens_sensor_responses"
+    state.optics = "none"  # chosen: kept across cameras, in the link and the parameters file
+    assert state.result.camera.optics == "none"
+    state.camera = "phone-1.4um"
+    assert state.result.camera.optics == "none" and json.loads(state.to_json())["optics"] == "none"
+    state.param.update(camera="kodak-dcs200-ir", optics="diffraction")
+    assert state.result.camera.optics == "diffraction"

@@ -250,6 +250,9 @@ def test_a_design_carries_optics_and_a_light_level():
 
     cam = camera_from_params({"optics": "diffraction"})
     assert cam.optics == "diffraction" and camera_from_params({}).optics == "none"
+    # "preset" (the default): the camera's own lens, diffraction for an electron-level sheet
+    assert camera_from_params({"camera": "imx174"}).optics == "diffraction"
+    assert camera_from_params({"camera": "imx174", "optics": "none"}).optics == "none"
     base = scene_from_params({})
     lit = scene_from_params({"light": 2.0})
     np.testing.assert_allclose(lit.data, 2.0 * base.data)

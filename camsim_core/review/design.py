@@ -75,7 +75,9 @@ RENDER_CHOICES = ("baseline", "illuminant")
 ILLUMINANT_CHOICES = ("known", "gray-world", "max-rgb")
 METRIC_CHOICES = ("CIELAB", "S-CIELAB")
 #: The lens: none (the chapter's five-stage camera) or diffraction-limited blur at the f-number.
-OPTICS_CHOICES = ("none", "diffraction")
+#: "preset": the camera's own lens (diffraction at the f-number for the electron-level sheets, none for the
+#: chapter's cameras), like the mosaic's "preset".
+OPTICS_CHOICES = ("preset", "none", "diffraction")
 #: Centres (nm) and widths (nm) a Gaussian preset starts from.
 GAUSSIAN_DEFAULTS = {"gaussian-3": ("640, 520, 460", "27"), "gaussian-4": ("460, 520, 580, 640", "27")}
 
@@ -88,7 +90,7 @@ DESIGN_PARAMETERS = {
     "alpha": (0.5, "number", (0.0, 1.0)),
     "gaussian_centers": ("640, 520, 460", "text", None),
     "gaussian_widths": ("27", "text", None),
-    "optics": ("none", "choice", OPTICS_CHOICES),
+    "optics": ("preset", "choice", OPTICS_CHOICES),
     "sensor": ("", "text", None),
     "mosaic": ("preset", "choice", MOSAIC_CHOICES),
     "custom_tile": ("1 0; 2 1", "text", None),
@@ -309,7 +311,7 @@ def camera_from_params(params, *, max_sensors=MAX_SENSORS, max_tile=MAX_TILE, ma
         noise_sigma=float(p["noise_sigma"]),
         noise_mean=0.0,
         seed=int(p["seed"]),
-        optics=str(p["optics"]),
+        optics=cam.optics if p["optics"] == "preset" else str(p["optics"]),
     )
     bits = int(p["bits"]) or None
     sensor = parse_sensor(p["sensor"], max_text=max_text)
