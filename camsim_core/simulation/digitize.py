@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._parallel import CORES, run_blocks, split
 from ._stage import stage
 
 __all__ = ["digitize", "apply_nonlinearity"]
@@ -51,10 +52,19 @@ def digitize(camera, image):
     data = data.astype(dtype, copy=False)
     if camera.nonlinearity is not None:
         data = apply_nonlinearity(data, full, camera.nonlinearity).astype(dtype, copy=False)
-    if black:
-        data = data + black
-    out = np.rint(data)
-    # finite inputs only turn NaN through overflow (inf * 0, inf - inf): an overexposed pixel saturates
-    out[np.isnan(out)] = full
-    np.clip(out, 0.0, full, out=out)
+    out = np.empty_like(data)
+
+    def quantize(a, b):
+        block = out[a:b]
+        if black:
+            np.add(data[a:b], black, out=block)
+        else:
+            block[...] = data[a:b]
+        np.rint(block, out=block)
+        # finite inputs only turn NaN through overflow (inf * 0, inf - inf): an overexposed pixel saturates
+        block[np.isnan(block)] = full
+        np.clip(block, 0.0, full, out=block)
+
+    # blocks of rows on the machine's cores (numpy's ufuncs release the GIL); a small image in one go
+    run_blocks(quantize, split(data.shape[0], CORES) if data.ndim else [0, 1], values=data.size)
     return image.then("digitize", data=out, bits=camera.bits, quantized=True, black_level=image.black_level + black)

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..image import check_tile
+from .._parallel import CORES, run_blocks, split
 from ._stage import stage
 
 __all__ = ["mosaic", "tile_index_map", "BAYER", "bayer", "FOUR_SENSOR_GRID"]
@@ -48,9 +49,14 @@ def _one_plane(planes, tile):
     H, W = planes.shape[:2]
     out = np.empty((H, W), planes.dtype)
     n, m = tile.shape
-    for py in range(min(n, H)):
-        for px in range(min(m, W)):
-            out[py::n, px::m] = planes[py::n, px::m, tile[py, px]]
+
+    def copy(a, b):  # rows a..b, a a whole number of tiles down: the tile's phase is the image's
+        for py in range(min(n, b - a)):
+            for px in range(min(m, W)):
+                out[a + py : b : n, px::m] = planes[a + py : b : n, px::m, tile[py, px]]
+
+    # blocks of whole tile rows on the machine's cores (numpy's copies release the GIL)
+    run_blocks(copy, split(-(-H // n), CORES) * n, values=out.size)
     return out
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._parallel import PARALLEL_VALUES, run_blocks
 from ._stage import stage
 from .electrons import electron_sensor
 
@@ -36,7 +37,12 @@ def noise(camera, image):
     with no shot noise wanted) means a noiseless camera: the stage does nothing.
 
     A float32 image gets float32 Gaussian deviates (the same distribution,
-    a different random stream than a float64 image of the same seed).
+    a different random stream than a float64 image of the same seed). A
+    float32 image of more than :data:`~camsim_core._parallel.PARALLEL_VALUES`
+    values (a sensor-size raw) draws them by blocks of rows of about
+    :data:`NOISE_BLOCK_VALUES` values, block i from child i of the seed's
+    ``SeedSequence``, on the machine's cores: the same noise for the same
+    seed and shape on any number of cores.
     """
     if camera.noise_model == "gaussian-range":
         return _range_noise(camera, image, np.asarray(image.data, float), np.random.default_rng(camera.seed))
@@ -46,7 +52,9 @@ def noise(camera, image):
         return image
     rng = np.random.default_rng(camera.seed)
     data = np.asarray(image.data)
-    if data.dtype == np.float32:
+    if data.dtype == np.float32 and data.size >= PARALLEL_VALUES and data.ndim >= 2:
+        out = _block_noise(data, camera.seed, np.float32(camera.noise_sigma), np.float32(camera.noise_mean))
+    elif data.dtype == np.float32:
         # float32 image: float32 normal deviates (numpy's float32 ziggurat, a different stream than
         # float64's for the same seed, about 2x faster), added in place without float64 temporaries
         out = rng.standard_normal(size=data.shape, dtype=np.float32)
@@ -57,6 +65,31 @@ def noise(camera, image):
         data = np.asarray(data, float)
         out = data + camera.noise_mean + rng.normal(0.0, camera.noise_sigma, size=data.shape)
     return image.then("noise", data=out, noise_sigma=float(np.hypot(image.noise_sigma, camera.noise_sigma)))
+
+
+#: Values per block of a large float32 image's noise (each block its own child stream of the seed).
+NOISE_BLOCK_VALUES = 1 << 20
+
+
+def _block_noise(data, seed, sigma, mean):
+    """data + mean + sigma x N(0, 1), float32, drawn by blocks of rows from child streams of ``seed``
+    (numpy's generators release the GIL while they fill, so the blocks run on the machine's cores)."""
+    data = np.ascontiguousarray(data)
+    out = np.empty_like(data)
+    row = int(np.prod(data.shape[1:]))
+    rows = max(1, NOISE_BLOCK_VALUES // max(row, 1))
+    edges = list(range(0, data.shape[0], rows)) + [data.shape[0]]
+    streams = dict(zip(edges[:-1], np.random.SeedSequence(seed).spawn(len(edges) - 1)))
+
+    def fill(a, b):
+        block = out[a:b]
+        np.random.Generator(np.random.PCG64(streams[a])).standard_normal(out=block, dtype=np.float32)
+        block *= sigma
+        block += data[a:b]
+        block += mean
+
+    run_blocks(fill, edges, values=data.size)
+    return out
 
 
 def _range_noise(camera, image, data, rng):

@@ -23,6 +23,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .._parallel import CORES, run_blocks, split
 from ._stage import stage
 
 __all__ = ["resample", "resampled_size", "axis_matrix", "axis_weights"]
@@ -161,7 +162,9 @@ def resample(camera, image):
         (h, k), w, dt = (iy.shape[0], data.shape[2]), ix.shape[0], data.dtype
         ixk, wxk = _spread(ix, wx, k)
         out = np.empty((h, w, k), dt)
-        _kernel()(data.reshape(H, W * k), iy, wy.astype(dt), ixk, wxk.astype(dt), out.reshape(h, w * k))
+        kernel, src, dst, wyd, wxd = _kernel(), data.reshape(H, W * k), out.reshape(h, w * k), wy.astype(dt), wxk.astype(dt)
+        # blocks of output rows on the machine's cores (the kernel releases the GIL; each row is computed alone)
+        run_blocks(lambda a, b: kernel(src, iy[a:b], wyd[a:b], ixk, wxd, dst[a:b]), split(h, CORES), values=dst.size)
         data = out
     if squeeze:
         data = data[:, :, 0]

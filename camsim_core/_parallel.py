@@ -1,0 +1,58 @@
+"""Blocks of one large array computed on the machine's cores, by kernels that release the GIL.
+
+Hand-written (a shared thread pool and a split into row blocks): the
+kernels it runs (numba functions compiled with ``nogil``, numpy's random
+fills) already release the GIL, so threads are all they need; a process
+pool or dask would copy the arrays. Small arrays run in the calling thread
+(the explorer's images: starting threads costs more than it saves).
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor, wait
+
+import numpy as np
+
+__all__ = ["CORES", "PARALLEL_VALUES", "run_blocks", "split"]
+
+#: Threads of the pool: the machine's cores.
+CORES = max(1, os.cpu_count() or 1)
+
+#: Work (values written) below which a call runs in the calling thread.
+PARALLEL_VALUES = 1 << 21
+
+_pool = None
+_lock = threading.Lock()
+
+
+def _executor():
+    global _pool
+    with _lock:
+        if _pool is None:
+            _pool = ThreadPoolExecutor(CORES, thread_name_prefix="camsim-block")
+        return _pool
+
+
+def run_blocks(fn, bounds, *, values):
+    """``fn(start, stop)`` for each consecutive pair of ``bounds`` (block edges), on the pool's threads when
+    ``values`` (the work, in values written) is at least :data:`PARALLEL_VALUES`, else in turn here.
+
+    ``fn`` must touch only its own block of the output. Exceptions are raised here, after every block ended.
+    """
+    edges = [int(b) for b in bounds]
+    pairs = [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+    if CORES == 1 or len(pairs) < 2 or values < PARALLEL_VALUES:
+        for a, b in pairs:
+            fn(a, b)
+        return
+    futures = [_executor().submit(fn, a, b) for a, b in pairs]
+    wait(futures)
+    for f in futures:
+        f.result()
+
+
+def split(n, parts):
+    """Edges of ``parts`` near-equal blocks of ``range(n)``."""
+    return np.linspace(0, n, max(1, min(parts, n)) + 1).astype(int)

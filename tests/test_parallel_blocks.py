@@ -1,0 +1,92 @@
+"""Sensor-size images on the machine's cores: the same numbers on one core as on many."""
+
+import numpy as np
+import pytest
+
+import camsim_core as cs
+import camsim_core._parallel as parallel
+from camsim_core.image import image_from_scene
+from camsim_core.scene import Scene
+from camsim_core.simulation import noise, resample, sensor_responses
+from camsim_core.simulation.noise import NOISE_BLOCK_VALUES
+
+
+@pytest.fixture
+def big_raw(dcs200_ir):
+    """A float32 camera image of 1500 x 2000 x 3 values (over the threshold at which blocks run in parallel)."""
+    rng = np.random.default_rng(3)
+    scene = Scene(rng.uniform(0, 0.02, (300, 400, 31)).astype(np.float32), np.arange(400.0, 701.0, 10.0),
+                  distance=3.32, angular_resolution=(102.6, 102.6))
+    cam = dcs200_ir.replace(distance=0.664, height=1500, width=2000, noise_sigma=2.0, seed=7, bits=None)  # 5 x closer
+    return cam, sensor_responses(cam, image_from_scene(scene))
+
+
+def on_cores(monkeypatch, n, fn):
+    monkeypatch.setattr(parallel, "CORES", n)
+    return fn()
+
+
+def test_resampling_by_row_blocks_on_two_cores_equals_one_core(big_raw, monkeypatch):
+    cam, image = big_raw
+    one = on_cores(monkeypatch, 1, lambda: resample(cam, image).data)
+    two = on_cores(monkeypatch, 2, lambda: resample(cam, image).data)
+    assert one.dtype == np.float32 and one.size >= parallel.PARALLEL_VALUES
+    np.testing.assert_array_equal(one, two)
+
+
+def test_block_noise_is_the_seeds_on_any_number_of_cores_and_has_its_sigma(big_raw, monkeypatch):
+    cam, image = big_raw
+    sampled = resample(cam, image)
+    one = on_cores(monkeypatch, 1, lambda: noise(cam, sampled).data)
+    two = on_cores(monkeypatch, 2, lambda: noise(cam, sampled).data)
+    np.testing.assert_array_equal(one, two)
+    dev = (two - sampled.data).astype(float)
+    assert dev.std() == pytest.approx(2.0, rel=0.01) and abs(dev.mean()) < 0.01
+    # the blocks are different streams: neighbouring blocks' deviates are uncorrelated, not repeated
+    rows = NOISE_BLOCK_VALUES // (dev.shape[1] * dev.shape[2])
+    a, b = dev[:rows].ravel(), dev[rows : 2 * rows].ravel()
+    assert abs(np.corrcoef(a, b)[0, 1]) < 0.01
+    other = noise(cam.replace(seed=8), sampled).data
+    assert not np.array_equal(other, two)
+
+
+def test_run_blocks_covers_every_block_once_and_raises_a_failure(monkeypatch):
+    monkeypatch.setattr(parallel, "CORES", 2)
+    out = np.zeros(10, int)
+
+    def mark(a, b):
+        out[a:b] += 1
+
+    parallel.run_blocks(mark, parallel.split(10, 4), values=parallel.PARALLEL_VALUES)
+    assert out.tolist() == [1] * 10
+
+    def fail(a, b):
+        if a:
+            raise ValueError("block failed")
+
+    with pytest.raises(ValueError, match="block failed"):
+        parallel.run_blocks(fail, [0, 5, 10], values=parallel.PARALLEL_VALUES)
+
+
+@pytest.mark.parametrize("tile", [np.array([[1, 0], [2, 1]]), np.array([[0, 1, 2], [2, 0, 1], [1, 2, 0]])])
+def test_mosaic_and_digitize_by_row_blocks_on_two_cores_equal_one_core(big_raw, monkeypatch, tile):
+    """An odd number of rows (a partial tile at the bottom), a pedestal, values past full scale and a NaN."""
+    from camsim_core.simulation import digitize, mosaic
+
+    cam, image = big_raw
+    cam = cam.replace(mosaic=tile, bits=8, black_level=3.0)
+    sampled = resample(cam, image)
+    data = sampled.data[:1489].copy()  # 1489 rows: a partial tile at the bottom for both tiles
+    data[0, 0, 0], data[1, 1, 1] = np.float32(1e30), np.float32(np.nan)
+    sampled = sampled.replace(data=data)
+
+    def chain():
+        return digitize(cam, mosaic(cam, sampled)).data
+
+    one, two = on_cores(monkeypatch, 1, chain), on_cores(monkeypatch, 2, chain)
+    np.testing.assert_array_equal(one, two)
+    h, w = data.shape[:2]
+    index = np.tile(tile, (-(-h // tile.shape[0]), -(-w // tile.shape[1])))[:h, :w]
+    expected = np.clip(np.rint(np.take_along_axis(data, index[:, :, None], axis=2)[:, :, 0] + 3.0), 0, 255)
+    expected[np.isnan(expected)] = 255
+    np.testing.assert_array_equal(two, expected)
