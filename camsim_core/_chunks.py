@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._parallel import CORES, run_blocks, split
+
 __all__ = ["CHUNK_PIXELS", "map_pixels"]
 
 #: Pixels per chunk: 262,144 (about 3 MiB per float32 temporary of three channels).
@@ -22,7 +24,9 @@ def map_pixels(fn, *arrays, chunk=CHUNK_PIXELS):
     ``fn`` takes and returns per-pixel rows: (n, C) -> (n, C') or (n,).
     The result has the arrays' leading shape and ``fn``'s trailing one and
     dtype (as ``fn`` returns for the first chunk). An image of at most one
-    chunk is a single call of ``fn`` on the whole.
+    chunk is a single call of ``fn`` on the whole; the chunks of a larger one
+    after the first run on the machine's cores (``fn`` must be a pure
+    function of its chunks), with the same numbers as in turn.
     """
     lead = arrays[0].shape[:-1]
     flats = [np.asarray(a).reshape(-1, a.shape[-1]) for a in arrays]
@@ -30,10 +34,15 @@ def map_pixels(fn, *arrays, chunk=CHUNK_PIXELS):
     if n <= chunk:
         first = fn(*flats)
         return first.reshape(lead + first.shape[1:])
-    out = None
-    for start in range(0, n, chunk):
-        part = fn(*(f[start : start + chunk] for f in flats))
-        if out is None:
-            out = np.empty((n,) + part.shape[1:], part.dtype)
-        out[start : start + chunk] = part
+    first = fn(*(f[:chunk] for f in flats))
+    out = np.empty((n,) + first.shape[1:], first.dtype)
+    out[:chunk] = first
+
+    def chunks(a, b):
+        for start in range(a * chunk, min(b * chunk, n), chunk):
+            out[start : start + chunk] = fn(*(f[start : start + chunk] for f in flats))
+
+    # the other chunks on the machine's cores (numpy's ufuncs release the GIL; each chunk is written alone)
+    count = -(-n // chunk)
+    run_blocks(chunks, split(count - 1, CORES) + 1, values=out.size)
     return out.reshape(lead + out.shape[1:])

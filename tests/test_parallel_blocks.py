@@ -90,3 +90,29 @@ def test_mosaic_and_digitize_by_row_blocks_on_two_cores_equal_one_core(big_raw, 
     expected = np.clip(np.rint(np.take_along_axis(data, index[:, :, None], axis=2)[:, :, 0] + 3.0), 0, 255)
     expected[np.isnan(expected)] = 255
     np.testing.assert_array_equal(two, expected)
+
+
+def test_bilinear_demosaic_by_class_on_two_cores_equals_one_core(big_raw, monkeypatch):
+    from camsim_core import demosaic
+    from camsim_core.simulation import digitize, mosaic
+
+    cam, image = big_raw
+    raw = digitize(cam, mosaic(cam, resample(cam, image)))
+    one = on_cores(monkeypatch, 1, lambda: demosaic(raw, "bilinear").data)
+    two = on_cores(monkeypatch, 2, lambda: demosaic(raw, "bilinear").data)
+    assert one.size >= parallel.PARALLEL_VALUES
+    np.testing.assert_array_equal(one, two)
+
+
+def test_per_pixel_chunks_on_two_cores_equal_one_core(monkeypatch):
+    """dE of two 1200 x 1200 XYZ images: six chunks of pixels, the first here and the rest on the pool."""
+    from camsim_core.metrics import delta_e
+
+    rng = np.random.default_rng(5)
+    a, b = rng.uniform(1, 90, (2, 1200, 1200, 3)).astype(np.float32)
+    white = np.array([95.0, 100.0, 108.9])
+    one = on_cores(monkeypatch, 1, lambda: delta_e(a, b, white))
+    two = on_cores(monkeypatch, 2, lambda: delta_e(a, b, white))
+    assert one.shape == (1200, 1200)
+    np.testing.assert_array_equal(one, two)
+    np.testing.assert_allclose(two[700, 900], delta_e(a[700:701, 900:901], b[700:701, 900:901], white)[0, 0], rtol=1e-6)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from .._parallel import CORES, run_blocks, split
 from ._masks import check_mosaiced
 
 __all__ = ["demosaic_bilinear", "tent"]
@@ -115,8 +116,13 @@ def bilinear_planes(data, tile, k):
     dtype = data.dtype if data.dtype in (np.float32, np.float64) else np.float64
     ky, kx = tent(tile.shape[0]), tent(tile.shape[1])
     out = np.empty(data.shape[:2] + (k,), dtype)
-    for c in range(k):
-        _interpolate(data, tile, c, ky, kx, out[:, :, c])
+
+    def classes(a, b):
+        for c in range(a, b):
+            _interpolate(data, tile, c, ky, kx, out[:, :, c])
+
+    # the classes on the machine's cores (scipy.ndimage's filters release the GIL; each class is computed alone)
+    run_blocks(classes, split(k, CORES), values=out.size)
     return out
 
 
