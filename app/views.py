@@ -28,7 +28,7 @@ from bokeh.plotting import figure
 from panel.models.markup import HTML as HTMLModel
 
 from camsim_core.cache import fingerprint
-from camsim_core.screen import to_screen
+from camsim_core.screen import block_size, to_screen
 from camsim_core.simulation import tile_index_map
 
 from . import state as state_module
@@ -250,11 +250,6 @@ def monitor_rgba(image):
     return rgba32(monitor_u8(image))
 
 
-def screen_block(shape, side):
-    """Image pixels per view pixel that fit an image of ``shape`` into ``side`` x ``side`` (1: as it is)."""
-    return max(1, -(-int(shape[0]) // side), -(-int(shape[1]) // side))
-
-
 def screen_part(array, side, region=None):
     """What a view sends of a display array (bottom row first): the part ``region`` (top, left, height,
     width; default the whole), as it is when it fits ``side`` x ``side``, else as block means of its pixels
@@ -262,7 +257,7 @@ def screen_part(array, side, region=None):
     a = np.asarray(array)
     top, left, height, width = (0, 0) + a.shape[:2] if region is None else region
     part = a[top : top + height, left : left + width]
-    block = screen_block(part.shape, side)
+    block = block_size(part.shape, (side, side))
     if block == 1:
         return np.ascontiguousarray(part), 1
     if a.dtype == np.uint32:  # packed RGBA: the four 8-bit channels averaged, then packed again
@@ -592,12 +587,12 @@ class ResultsView:
             return
         h, w = self.shape
         side = state_module.LIMITS.max_view_side
-        whole = screen_block((h, w), side)
+        whole = block_size((h, w), (side, side))
         vx0, vx1 = max(0.0, min(x0, x1)), min(float(w), max(x0, x1))
         vy0, vy1 = max(0.0, min(y0, y1)), min(float(h), max(y0, y1))
         if (whole == 1 and self.region is None) or vx1 <= vx0 or vy1 <= vy0:
             return
-        need = screen_block((np.ceil(vy1 - vy0), np.ceil(vx1 - vx0)), side)
+        need = block_size((np.ceil(vy1 - vy0), np.ceil(vx1 - vx0)), (side, side))
         region = None
         if need < whole:
             my = max(0.0, min((vy1 - vy0) / 2, (need * side - (vy1 - vy0)) / 2 - 1))
@@ -607,7 +602,7 @@ class ResultsView:
             region = (top, left, bottom - top, right - left)
             if self.region is not None:  # the region shown already holds the view in as much detail: keep it
                 t, l, rh, rw = self.region
-                if t <= vy0 and l <= vx0 and t + rh >= vy1 and l + rw >= vx1 and screen_block((rh, rw), side) <= need:
+                if t <= vy0 and l <= vx0 and t + rh >= vy1 and l + rw >= vx1 and block_size((rh, rw), (side, side)) <= need:
                     return
         if region == self.region:
             return

@@ -23,7 +23,12 @@ import numpy as np
 
 from .errors import ParameterError
 
-__all__ = ["to_screen"]
+__all__ = ["to_screen", "block_size"]
+
+
+def block_size(shape, max_shape):
+    """Image pixels per view pixel (along each axis) that fit an image of ``shape`` into ``max_shape``."""
+    return max(1, math.ceil(shape[0] / max_shape[0]), math.ceil(shape[1] / max_shape[1]))
 
 
 def to_screen(data, max_shape=(1080, 1920), region=None):
@@ -71,7 +76,7 @@ def to_screen(data, max_shape=(1080, 1920), region=None):
     if height < 1 or width < 1:
         raise ParameterError("region", f"must hold at least one pixel of the {H} x {W} image, got {region!r}")
     part = a[top : top + height, left : left + width]
-    block = max(1, math.ceil(height / rows), math.ceil(width / cols))
+    block = block_size((height, width), (rows, cols))
     dtype = np.float64 if part.dtype == np.float64 else np.float32
     if block == 1:
         return part.astype(dtype, copy=True), 1

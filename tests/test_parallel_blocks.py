@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 
-import camsim_core as cs
 import camsim_core._parallel as parallel
 from camsim_core.image import image_from_scene
 from camsim_core.scene import Scene

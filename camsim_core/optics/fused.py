@@ -46,18 +46,15 @@ import scipy.fft as sfft
 
 from ..simulation._stage import stage
 from ..simulation.sensor import respond, sensor_responses
-from .stage import _FFT_WORKERS, blur_geometry, optics, optics_active, otfs_at, padded_grid, photometry, \
-    radial_frequency, reflect_margins
+from .._parallel import CORES, PARALLEL_VALUES
+from .stage import blur_geometry, optics, optics_active, otf_key, otfs_at, padded_grid, photometry, radial_frequency, \
+    reflect_margins
 
 __all__ = ["lens_sensor_responses", "otf_factors", "OTF_TOLERANCE"]
 
 #: Largest error of the low-rank OTF, at any frequency and wavelength (the OTF is 1 at zero frequency). Measured
 #: on the default scene at f/11, the responses then differ from the per-wavelength blur's by 4e-5 of their maximum.
 OTF_TOLERANCE = 1e-3
-
-#: Transforms of fewer values than this run on one thread: for the explorer's scenes (~0.4 M values) starting
-#: threads costs more than it saves (measured: 4.6 against 5.5 ms a call on the default scene).
-_PARALLEL_FFT_VALUES = 1 << 21
 
 #: Samples of the radial frequency table the factors are computed on (and interpolated from).
 _RADIAL_SAMPLES = 8193
@@ -84,17 +81,14 @@ def otf_factors(shape, pitch, wavelengths, f_number, defocus=None, *, tolerance=
 
     Returns
     -------
-    U : ndarray, (R, H, W//2 + 1)
-        Wavelength-independent transfer functions.
+    U : ndarray, (H, W//2 + 1, R)
+        Wavelength-independent transfer functions, pixel-major like the images.
     V : ndarray, (N, R)
-        Their weight at each wavelength: OTF(f, lambda_n) ~= sum_r U[r](f) V[n, r].
+        Their weight at each wavelength: OTF(f, lambda_n) ~= sum_r U[..., r](f) V[n, r].
 
     Both read-only (cached: a pure function of the arguments).
     """
-    key = (tuple(int(v) for v in shape), tuple(float(v) for v in pitch), tuple(np.asarray(wavelengths, float).tolist()),
-           float(f_number), None if defocus is None else tuple(np.asarray(defocus, float).tolist()),
-           float(tolerance), np.dtype(dtype).name)
-    return _otf_factors(*key)
+    return _otf_factors(*otf_key(shape, pitch, wavelengths, f_number, defocus), float(tolerance), np.dtype(dtype).name)
 
 
 @lru_cache(maxsize=8)
@@ -144,7 +138,9 @@ def _lens_responses(data, weights, factors, pads, spectral, spatial, scalar):
     planes = np.empty((hp, wp, rank * k), np.float32)
     planes[top : top + h, left : left + w] = (data.reshape(h * w, n) @ mixed).reshape(h, w, rank * k)
     reflect_margins(planes, pads[0], pads[1], axes=(0, 1))
-    workers = _FFT_WORKERS if planes.size >= _PARALLEL_FFT_VALUES else 1
+    # the explorer's scenes (~0.4 M values) on one thread: starting threads costs more than it saves
+    # (measured: 4.6 against 5.5 ms a call on the default scene)
+    workers = CORES if planes.size >= PARALLEL_VALUES else 1
     spectrum = sfft.rfft2(planes, axes=(0, 1), overwrite_x=True, workers=workers)
     del planes
     summed = np.empty(spectrum.shape[:2] + (k,), spectrum.dtype)

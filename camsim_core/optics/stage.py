@@ -33,12 +33,12 @@ irradiance. :func:`sensor_irradiance` converts to W/m^2.
 
 from __future__ import annotations
 
-import os
 from functools import lru_cache
 
 import numpy as np
 import scipy.fft as sfft
 
+from .._parallel import CORES
 from ..errors import ParameterError
 from ..simulation._stage import stage
 from ..spectra import Spectrum
@@ -65,10 +65,13 @@ def plane_otfs(shape, pitch, wavelengths, f_number, defocus=None, dtype=np.float
     its arguments; read-only result): moving another parameter of the camera
     does not recompute them.
     """
-    key = (tuple(int(v) for v in shape), tuple(float(v) for v in pitch), tuple(np.asarray(wavelengths, float).tolist()),
-           float(f_number), None if defocus is None else tuple(np.asarray(defocus, float).tolist()),
-           np.dtype(dtype).name)
-    return _plane_otfs(*key)
+    return _plane_otfs(*otf_key(shape, pitch, wavelengths, f_number, defocus), np.dtype(dtype).name)
+
+
+def otf_key(shape, pitch, wavelengths, f_number, defocus):
+    """The OTF's arguments as hashable values (the key of the OTF caches)."""
+    return (tuple(int(v) for v in shape), tuple(float(v) for v in pitch), tuple(np.asarray(wavelengths, float).tolist()),
+            float(f_number), None if defocus is None else tuple(np.asarray(defocus, float).tolist()))
 
 
 @lru_cache(maxsize=8)
@@ -142,16 +145,14 @@ def blur_planes(data, wavelengths, pitch, f_number, defocus=None):
     (my, mx), (hp, wp) = padded_grid((h, w), pitch, wl, f_number, defocus)
     planes = _mirror_padded(data, dtype, (my, hp - h - my), (mx, wp - w - mx))
     otf = plane_otfs((hp, wp), pitch, wl, f_number, defocus, dtype)
-    spectrum = sfft.rfft2(planes, axes=(1, 2), overwrite_x=True, workers=_FFT_WORKERS)
+    spectrum = sfft.rfft2(planes, axes=(1, 2), overwrite_x=True, workers=CORES)
     spectrum *= otf
-    out = sfft.irfft2(spectrum, s=(hp, wp), axes=(1, 2), overwrite_x=True, workers=_FFT_WORKERS)[:, my : my + h, mx : mx + w]
+    out = sfft.irfft2(spectrum, s=(hp, wp), axes=(1, 2), overwrite_x=True, workers=CORES)[:, my : my + h, mx : mx + w]
     return np.ascontiguousarray(np.moveaxis(out, 0, 2))
 
 
 #: Pixels per block of the cube's transposition into planes.
 _TRANSPOSE_PIXELS = 4096
-#: Threads of each FFT (scipy.fft releases the GIL): the machine's cores.
-_FFT_WORKERS = max(1, os.cpu_count() or 1)
 
 
 def _mirror_padded(data, dtype, pad_y, pad_x):

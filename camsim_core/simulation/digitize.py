@@ -55,16 +55,14 @@ def digitize(camera, image):
     out = np.empty_like(data)
 
     def quantize(a, b):
-        block = out[a:b]
+        block, source = out[a:b], data[a:b]
         if black:
-            np.add(data[a:b], black, out=block)
-        else:
-            block[...] = data[a:b]
-        np.rint(block, out=block)
+            source = np.add(source, black, out=block)
+        np.rint(source, out=block)
         # finite inputs only turn NaN through overflow (inf * 0, inf - inf): an overexposed pixel saturates
         block[np.isnan(block)] = full
         np.clip(block, 0.0, full, out=block)
 
     # blocks of rows on the machine's cores (numpy's ufuncs release the GIL); a small image in one go
-    run_blocks(quantize, split(data.shape[0], CORES) if data.ndim else [0, 1], values=data.size)
+    run_blocks(quantize, split(data.shape[0], CORES), values=data.size)
     return image.then("digitize", data=out, bits=camera.bits, quantized=True, black_level=image.black_level + black)
