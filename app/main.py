@@ -26,6 +26,7 @@ from bokeh.core.validation.warnings import FIXED_SIZING_MODE
 from camsim_core.camera.physical import PHYSICAL_NAMES
 from camsim_core.scene.charts import CHART_NAMES, chart_defaults
 
+from . import _panel_tuning
 from . import state as state_module
 from .compare import compare_tab
 from .physical import SensorControls
@@ -86,6 +87,7 @@ def _pages_without_mathjax():
 
 
 _pages_without_mathjax()
+_panel_tuning.apply()
 
 
 def configure(scene=None, *, limits=None, upload=True):
