@@ -107,3 +107,35 @@ def test_screen_part_of_packed_rgba_averages_each_channel():
     assert channels[0, 0].tolist() == [10, 20, 30, 255] and channels[1, 0].tolist() == [200, 100, 0, 255]
     same, one = screen_part(packed, 6, (1, 2, 2, 3))
     assert one == 1 and np.array_equal(same, packed[1:3, 2:5])
+
+
+def test_de_map_is_coloured_as_bokehs_linear_mapper_would_colour_it():
+    """The dE map leaves the server coloured: the colours are those of LinearColorMapper(Inferno256, low, high)
+    (index floor((v - low) / (high - low) * 256), clipped to the ends; NaN grey), written out here from the palette."""
+    from bokeh.palettes import Inferno256
+
+    from app.views import de_rgba
+
+    low, high = 2.0, 12.0
+    values = np.array([[-5.0, 2.0, 2.03, 4.5, 7.0, 11.99, 12.0, 40.0, np.nan]], np.float32)
+    got = de_rgba(values, low, high).view(np.uint8).reshape(1, -1, 4)[0]
+    for v, rgba in zip(values[0], got):
+        if np.isnan(v):
+            assert rgba.tolist() == [128, 128, 128, 255]
+            continue
+        k = int(np.clip(np.floor((v - low) / (high - low) * 256), 0, 255))
+        hexa = Inferno256[k]
+        assert rgba.tolist() == [int(hexa[1:3], 16), int(hexa[3:5], 16), int(hexa[5:7], 16), 255], v
+
+
+def test_de_view_sends_colours_and_values_and_follows_the_scale():
+    view = ResultsView(ExplorerState())  # the default screen: the map fits, sent as it is
+    state = view.state
+    de = state.result.delta_e
+    image, _, data = sent(view, "de")
+    assert image.dtype == np.uint32 and data["value"][0].dtype == np.float32
+    np.testing.assert_allclose(data["value"][0], np.asarray(de, np.float32)[::-1])  # the hover's values, as computed
+    state.de_scale = "fixed 0-20"
+    fixed, _, _ = sent(view, "de")
+    assert not np.array_equal(fixed, image)  # new colours for the new scale
+    assert (view.mapper.low, view.mapper.high) == (0.0, 20.0)
