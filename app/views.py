@@ -45,6 +45,18 @@ _SCENE_RGB = {}
 
 #: A computation still running after this long marks the result panes as busy (ms).
 BUSY_DELAY_MS = 250
+#: A pane marked busy (``loading``) shows a still "Computing..." label over its dimmed content instead of
+#: Panel's animated spinner: an animated spinner repaints at the screen's frame rate, and six of them
+#: kept half a core of the browser busy for as long as a result was computing (measured: 2.4 CPU-s per
+#: 5 s, against 0.04 idle), which on a machine serving the page made the result itself come later.
+STILL_BUSY_CSS = """
+:host(.pn-loading):before, .pn-loading:before {
+  -webkit-mask-image: none !important; mask-image: none !important; animation: none !important;
+  content: 'Computing...' !important; width: auto !important; height: auto !important;
+  background-color: rgba(255, 255, 255, 0.9) !important; color: #333; font-size: 1em;
+  padding: 2px 10px; border-radius: 4px; border: 1px solid #bbb;
+}
+"""
 #: The image frames keep their shape while the image's aspect ratio stays within this factor of theirs
 #: (a distance change, which keeps the scene's aspect until the sensor crops it).
 ASPECT_TOLERANCE = 1.1
@@ -488,7 +500,8 @@ class ResultsView:
             if key == "de":
                 self.colour_bar = ColourBar(self.mapper, "dE", "camsim-de-colorbar")
                 parts.append(pn.pane.Bokeh(self.colour_bar.figure, sizing_mode="stretch_width"))
-            self.panes[key] = pn.Column(*parts, css_classes=[f"camsim-{key}", "camsim-view"], sizing_mode="stretch_width")
+            self.panes[key] = pn.Column(*parts, css_classes=[f"camsim-{key}", "camsim-view"], sizing_mode="stretch_width",
+                                        stylesheets=[STILL_BUSY_CSS])
         # the histogram keeps its own axes, refitted to each result
         self.hist_source = ColumnDataSource(dict(left=[0.0], right=[1.0], top=[0]))
         hist = figure(height=240, sizing_mode="stretch_width", tools="", toolbar_location=None,
@@ -502,7 +515,7 @@ class ResultsView:
         self.hist_figure = hist
         self.labels["hist"] = _label("dE histogram", "camsim-hist-label")
         self.panes["hist"] = pn.Column(self.labels["hist"], pn.pane.Bokeh(hist, sizing_mode="stretch_width"),
-                                       css_classes=["camsim-hist"], sizing_mode="stretch_width")
+                                       css_classes=["camsim-hist"], sizing_mode="stretch_width", stylesheets=[STILL_BUSY_CSS])
         # HTML, not Markdown: these change with every result, and need no parsing
         self.stats = Text("", ["camsim-stats"], margin=(0, 10))
         self.warnings = Text("", ["camsim-warnings"], margin=(0, 10))
