@@ -65,7 +65,7 @@ def test_baseline_reproduces_camera_responses(monitor, macbeth):
     lin = monitor.settings_to_linear(out.data / 255.0)
     seen = lin @ (raw.sensitivities @ monitor.primaries_on(raw.wavelengths)).T * out.extra["display_scale"]
     r = raw.data / raw.gain
-    inside = np.all((out.extra["linear"] > 0.02) & (out.extra["linear"] < 0.98), axis=2)
+    inside = np.all((lin > 0.02) & (lin < 0.98), axis=2)
     assert inside.sum() > 1000
     rel = np.abs(seen - r)[inside] / r[inside].max()
     assert rel.max() < 0.02
@@ -225,3 +225,44 @@ def test_analog_gain_scales_the_raw_but_not_the_rendering(monitor):
     assert two.gain == pytest.approx(2 * one.gain, rel=1e-12)
     assert np.array_equal(two.data, 2 * one.data)  # the same draw (same seed), twice the digital values
     assert np.array_equal(cs.render(two, monitor).data, cs.render(one, monitor).data)
+
+
+@pytest.mark.parametrize("method", ["baseline", "illuminant"])
+def test_render_makes_no_full_size_float_temporary(monitor, method):
+    """Float32 images 1200 and 3600 rows high (1200 wide) rendered: settings, display scale, clipping and gamma
+    go by chunks of pixels, so the peak memory beyond the output (traced by tracemalloc, which numpy reports its
+    arrays to) is the same for both; a full-size linear settings image would add 2 x 1200 x 1200 x 12 bytes."""
+    import tracemalloc
+
+    scene = cs.load_scene("cacaphony290")
+    dem = cs.demosaic(cs.simulate(scene, cs.load_camera("kodak-dcs200-ir")), "bilinear")
+    small = cs.render(dem.replace(data=dem.data.astype(np.float32)), monitor, method)  # tables, matrices: made once
+
+    def transient(h):
+        reps = (-(-h // dem.data.shape[0]), -(-1200 // dem.data.shape[1]), 1)
+        big = dem.replace(data=np.ascontiguousarray(np.tile(dem.data.astype(np.float32), reps)[:h, :1200]))
+        tracemalloc.start()
+        try:
+            out = cs.render(big, monitor, method)
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        assert out.data.dtype == np.float32 and out.data.shape == (h, 1200, 3)
+        # the chunks give the numbers of the whole: the small image repeats in the large one
+        np.testing.assert_array_equal(out.data[: small.data.shape[0], : small.data.shape[1]], small.data.astype(np.float32))
+        return peak - out.data.nbytes
+
+    low, high = transient(1200), transient(3600)
+    assert high - low < 4 * 2**20, f"{low / 2**20:.0f} MiB beyond the output at 1200 rows, {high / 2**20:.0f} at 3600"
+
+
+def test_render_with_an_image_dependent_scale_by_chunks(monitor):
+    """Without a scene illuminant the display scale is the 99.5th percentile of each pixel's largest linear
+    setting, found by chunks: a tiled image has the percentile of its tile, so the same rendering."""
+    scene = cs.load_scene("cacaphony290")
+    dem = cs.demosaic(cs.simulate(scene, cs.load_camera("kodak-dcs200-ir")), "bilinear").replace(illuminant=None)
+    small = cs.render(dem, monitor)
+    big = cs.render(dem.replace(data=np.tile(dem.data, (4, 3, 1))), monitor)  # over one chunk of pixels
+    assert small.extra["scale_source"] == big.extra["scale_source"] == "image 99.5th percentile"
+    assert big.extra["display_scale"] == pytest.approx(small.extra["display_scale"], rel=1e-3)
+    assert np.abs(big.data[: small.data.shape[0], : small.data.shape[1]] - small.data).max() <= 1

@@ -19,10 +19,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._chunks import map_pixels
 from ..errors import ParameterError
 from ..monitor import Monitor, load_monitor
 from ._linear import apply_matrix, cones, per_band
-from .baseline import _sensor_planes, baseline_matrix, display_scale, to_frame_buffer
+from .baseline import _sensor_planes, baseline_matrix, display_scale
 from .ideal import ideal_camera, ideal_image
 from .illuminant import balance_matrix, matched_luminance, resolve_illuminant, surface_basis
 from .xyz import monitor_xyz_matrix, to_xyz, white_xyz
@@ -36,6 +37,11 @@ def _monitor(monitor):
     if isinstance(monitor, Monitor):
         return monitor
     return load_monitor(monitor)
+
+
+def _settings(rows, m):
+    """Linear monitor settings ``m @ r`` of sensor rows (n, K) -> (n, 3), in the rows' float dtype."""
+    return apply_matrix(rows[:, None, :], m)[:, 0, :]
 
 
 class _Responses:
@@ -78,9 +84,11 @@ def render(image, monitor, method="baseline", illuminant=None, dimensions=None, 
     CameraImage
         ``space="monitor"``, data (H, W, 3) integer frame-buffer values
         0..255 (float array), ``bits=8``, ``quantized=True``. ``extra``
-        holds ``linear`` (the clipped linear settings), ``display_scale``,
-        ``scale_source`` and, for the illuminant method, ``illuminant`` (the
-        Spectrum used).
+        holds ``display_scale``, ``scale_source`` and, for the illuminant
+        method, ``illuminant`` (the Spectrum used). The linear settings are
+        made and gamma corrected by chunks of pixels and not kept (a
+        12-megapixel image's would be 137 MiB more); ``monitor.
+        frame_buffer_to_linear(data)`` gives them back to 8-bit steps.
     """
     key = str(method).lower()
     if key not in METHODS:
@@ -95,7 +103,7 @@ def render(image, monitor, method="baseline", illuminant=None, dimensions=None, 
     if key == "baseline":
         if illuminant is not None or render_illuminant is not None or dimensions is not None:
             raise ParameterError("method", "illuminant, render_illuminant and dimensions apply to method='illuminant' only")
-        w = apply_matrix(data, baseline_matrix(image.sensitivities, b_m) / gain)
+        m = baseline_matrix(image.sensitivities, b_m) / gain
     else:
         n_s = image.n_sensors if dimensions is None else int(dimensions)
         r = _Responses(data, gain)
@@ -108,20 +116,28 @@ def render(image, monitor, method="baseline", illuminant=None, dimensions=None, 
                 white_used = matched_luminance(e_render, per_band(image.illuminant, wls), wls)
         t_h = cones(wls)
         to_cones = balance_matrix(image.sensitivities, t_h, e, surface_basis(wls, n_s), e_render)
-        m = baseline_matrix(t_h, b_m, "cone-monitor matrix T_H B_M") @ to_cones
-        w = apply_matrix(data, m / gain)
+        m = baseline_matrix(t_h, b_m, "cone-monitor matrix T_H B_M") @ to_cones / gain
         if white_used is None and image.illuminant is None:
             white_used = e  # an estimated or given illuminant stands in for the scene's white
         extra["illuminant"] = spd
         extra["dimensions"] = n_s
-    s, source = display_scale(image, mon, white=white_used, scale=scale, linear=w)
-    linear = w
-    linear /= linear.dtype.type(s) if linear.dtype == np.float32 else s
-    np.clip(linear, 0.0, 1.0, out=linear)
-    extra.update(linear=linear, display_scale=s, scale_source=source, monitor=mon.name)
+    peak = None
+    if scale is None and white_used is None and image.illuminant is None:
+        # the image-dependent scale: the largest linear setting of each pixel, by chunks
+        peak = map_pixels(lambda c: _settings(c, m).max(axis=1), data)[..., None]
+    s, source = display_scale(image, mon, white=white_used, scale=scale, linear=peak)
+    extra.update(display_scale=s, scale_source=source, monitor=mon.name)
+
+    def frame_buffer(c):
+        linear = _settings(c, m)
+        linear /= linear.dtype.type(s) if linear.dtype == np.float32 else s
+        np.clip(linear, 0.0, 1.0, out=linear)
+        return mon._frame_buffer_chunk(linear, linear.dtype).astype(linear.dtype, copy=False)
+
     return image.then(
         f"render:{key}",
-        data=to_frame_buffer(linear, mon),
+        # settings, display scale, clipping and gamma by chunks of pixels: no full-size float temporary
+        data=map_pixels(frame_buffer, data),
         space="monitor",
         bits=mon.bits,
         quantized=True,
