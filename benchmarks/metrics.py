@@ -42,6 +42,11 @@ def ndimage_filter_channels(planes, spd):
     return out
 
 
+def camsim_filter_channels(planes, spd):
+    """camsim's filtering (:func:`s_cielab.filter_opponent`) of planes (N, 3, H, W), image by image."""
+    return np.stack([np.moveaxis(s_cielab.filter_opponent(np.moveaxis(p, 0, -1), spd), -1, 0) for p in planes])
+
+
 def ndimage_scielab(xyz1, xyz2, spd, white):
     """The whole metric with the baseline filtering (same colorimetry as camsim's)."""
     x = np.stack([xyz1, xyz2])
@@ -74,7 +79,7 @@ def main(argv=None):
         xyz2 = xyz1 + rng.normal(0, 2, size=xyz1.shape)
         opp = np.einsum("ij,...hwj->...ihw", s_cielab.XYZ_TO_OPPONENT, np.stack([xyz1, xyz2]))
 
-        fast = s_cielab._filter_channels(opp, SPD)
+        fast = camsim_filter_channels(opp, SPD)
         slow = ndimage_filter_channels(opp, SPD)
         agree = float(np.max(np.abs(fast - slow)))
         d_fast = scielab_fn(xyz1, xyz2, SPD, WHITE)
@@ -82,7 +87,7 @@ def main(argv=None):
         agree_de = float(np.max(np.abs(d_fast - d_slow)))
 
         t_nd_f = timeit(lambda: ndimage_filter_channels(opp, SPD), max(2, args.repeat // 2))
-        t_ff_f = timeit(lambda: s_cielab._filter_channels(opp, SPD), args.repeat)
+        t_ff_f = timeit(lambda: camsim_filter_channels(opp, SPD), args.repeat)
         t_nd = timeit(lambda: ndimage_scielab(xyz1, xyz2, SPD, WHITE), max(2, args.repeat // 2))
         t_ff = timeit(lambda: scielab_fn(xyz1, xyz2, SPD, WHITE), args.repeat)
         name = f"{shape[0]}x{shape[1]}"

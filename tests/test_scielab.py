@@ -173,3 +173,92 @@ def test_unknown_method_error():
 def test_errors_are_value_errors():
     with pytest.raises(ValueError, match="positive"):
         scielab(np.ones((10, 12, 3)), np.ones((10, 12, 3)), 0, WHITE)
+
+
+# ---------------------------------------------------------------------------
+# bands of rows, rendered images in, bounded memory
+@pytest.mark.parametrize("band_rows", [7, 16, 40])
+def test_filtering_by_many_bands_matches_direct_2d_convolution(monkeypatch, band_rows):
+    """Bands much shorter than the kernel (top and bottom bands reaching into the mirror and the zeros,
+    a last band shorter than the others) give the direct 2-D convolution, as one band does."""
+    from camsim_core.metrics import s_cielab
+
+    monkeypatch.setattr(s_cielab, "BAND_ROWS", band_rows)
+    rng = np.random.default_rng(4)
+    opp = rng.normal(size=(61, 47, 3))
+    out = filter_opponent(opp, 37.0)
+    for ch in range(3):
+        ref = ref_filter(opp[..., ch], ref_kernel_2d(ch, 37.0))
+        np.testing.assert_allclose(out[..., ch], ref, rtol=0, atol=1e-9)
+
+
+def test_wide_images_are_filtered_in_shorter_bands():
+    """Over BAND_PIXELS / BAND_ROWS pixels wide, a band has fewer rows (not under 128)."""
+    from camsim_core.metrics import s_cielab
+
+    assert s_cielab._band_rows(300) == 512
+    assert s_cielab._band_rows(4000) == max(128, (1 << 19) // 4000) == 131
+    assert s_cielab._band_rows(100_000) == 128
+
+
+@pytest.fixture(scope="module")
+def rendered_pair():
+    """A rendered camera image and its ideal image (the default scene, DCS-200), float32 and float64."""
+    cs = camsim_core
+    mon = cs.load_monitor("simtoolbox-test")
+    scene = cs.load_scene("cacaphony290")
+    cam = cs.load_camera("kodak-dcs200-ir").replace(noise_sigma=2.0, seed=3)
+    ren = cs.render(cs.demosaic(cs.simulate(scene, cam), "bilinear"), mon)
+    ideal = cs.ideal_image(scene, cam, mon)
+    return mon, cam, ren, ideal
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_rendered_images_with_their_monitor_give_the_numbers_of_to_xyz(rendered_pair, dtype):
+    """delta_e / scielab(rendered, ideal, monitor=) == the same metric of to_xyz of each, exactly."""
+    cs = camsim_core
+    mon, cam, ren, ideal = rendered_pair
+    ren, ideal = ren.replace(data=ren.data.astype(dtype)), ideal.replace(data=ideal.data.astype(dtype))
+    white = cs.rendering.white_xyz(mon)
+    spd = samples_per_degree(cam)
+    xyz, ixyz = cs.to_xyz(ren, mon), cs.to_xyz(ideal, mon)
+    np.testing.assert_array_equal(delta_e(ren, ideal, white, monitor=mon), delta_e(xyz, ixyz, white))
+    np.testing.assert_array_equal(scielab(ren, ideal, spd, white, monitor=mon), scielab(xyz, ixyz, spd, white))
+    assert scielab(ren, ideal, spd, white, monitor="simtoolbox-test").mean() > 0.5  # noise: a real difference
+
+
+def test_rendered_images_without_a_monitor_are_refused(rendered_pair):
+    mon, cam, ren, ideal = rendered_pair
+    with pytest.raises(ParameterError, match="xyz1.*rendered image.*monitor="):
+        scielab(ren, ideal, 102.6, WHITE)
+    with pytest.raises(ParameterError, match="xyz2.*rendered image"):
+        delta_e(np.ones((3, 4, 3)), ideal, WHITE)
+    raw = camsim_core.simulate(camsim_core.load_scene("cacaphony290"), camsim_core.load_camera("kodak-dcs200-ir"))
+    with pytest.raises(ParameterError, match="xyz1.*rendered monitor image"):
+        delta_e(raw, ideal, WHITE, monitor=mon)
+
+
+def test_scielab_of_rendered_images_holds_no_full_size_temporary(rendered_pair):
+    """S-CIELAB of rendered float32 images 1200 and 3600 rows high (1200 wide), traced by tracemalloc (numpy
+    reports its arrays to it): the memory beyond the (H, W) output is the same for both (bands of rows),
+    where one full-size XYZ, opponent or filtered image would add 2 x 1200 x 1200 x 12 bytes (33 MiB)."""
+    import tracemalloc
+
+    mon, cam, ren, ideal = rendered_pair
+    white = camsim_core.rendering.white_xyz(mon)
+
+    def transient(h):
+        a = ren.replace(data=np.resize(ren.data.astype(np.float32), (h, 1200, 3)))
+        b = ideal.replace(data=np.resize(ideal.data.astype(np.float32), (h, 1200, 3)))
+        tracemalloc.start()
+        try:
+            out = scielab(a, b, 102.6, white, monitor=mon)
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        assert out.shape == (h, 1200) and np.all(np.isfinite(out))
+        return peak - out.nbytes
+
+    transient(1200)  # kernel spectra, FFT plans, tables: made once, not the call's
+    small, large = transient(1200), transient(3600)
+    assert large - small < 8 * 2**20, f"{small / 2**20:.0f} MiB at 1200 rows, {large / 2**20:.0f} MiB at 3600"

@@ -88,6 +88,33 @@ def check_pair(xyz1, xyz2):
     return a, b
 
 
+def rendered_pair(xyz1, xyz2, monitor):
+    """The two inputs of a metric and their row converters to XYZ: ``(a, b, to_xyz_a, to_xyz_b)``.
+
+    Without ``monitor``, two XYZ images (:func:`check_pair`) and ``None``
+    converters. With it, two rendered images (``space="monitor"``) on that
+    monitor: their frame-buffer values and the functions taking rows of
+    them to XYZ (:func:`camsim_core.rendering.xyz.xyz_converter`), so a
+    metric can convert by chunks and never hold a full XYZ image.
+    """
+    if monitor is None:
+        for name, x in (("xyz1", xyz1), ("xyz2", xyz2)):
+            if hasattr(x, "space"):
+                raise ParameterError(name, "is a rendered image, not XYZ values: give monitor= (the monitor it was rendered for)")
+        return check_pair(xyz1, xyz2) + (None, None)
+    from ..monitor import Monitor, load_monitor
+    from ..rendering.xyz import xyz_converter
+
+    mon = monitor if isinstance(monitor, Monitor) else load_monitor(monitor)
+    (a, to_a), (b, to_b) = (xyz_converter(x, mon, name) for name, x in (("xyz1", xyz1), ("xyz2", xyz2)))
+    for name, v in (("xyz1", a), ("xyz2", b)):
+        if not np.all(np.isfinite(v)):
+            raise ParameterError(name, "the rendered image contains NaN or infinite values")
+    if a.shape != b.shape:
+        raise ParameterError("xyz2", f"the two images must have the same shape, got {a.shape} and {b.shape}")
+    return a, b, to_a, to_b
+
+
 def xyz_to_lab(xyz, white):
     """CIE 1976 L*a*b* of ``xyz`` relative to the white ``white`` (same units as ``xyz``).
 
@@ -152,17 +179,22 @@ def delta_e_lab(lab1, lab2, method="CIE 1976"):
     return colour.delta_E(np.asarray(lab1, float), np.asarray(lab2, float), method=method)
 
 
-def delta_e(xyz1, xyz2, white, method="CIE 1976"):
+def delta_e(xyz1, xyz2, white, method="CIE 1976", *, monitor=None):
     """CIELAB colour difference map between two XYZ images (chapter section 4.3).
 
     Parameters
     ----------
     xyz1, xyz2 : array_like (H, W, 3) (or any (..., 3), the same for both)
         CIE 1931 XYZ of the two images as displayed, in the unit of ``white``.
+        With ``monitor``: the two rendered images (CameraImage, space
+        "monitor") themselves, taken to XYZ on that monitor by chunks (the
+        numbers of :func:`camsim_core.to_xyz`, without its full-size images).
     white : array_like (3,)
         XYZ of the reference white (e.g. the monitor's white); all positive.
     method : {"CIE 1976", "CIE 2000"}
         Delta E*ab (CIE 1976, the chapter's) or CIEDE2000.
+    monitor : Monitor or name, optional
+        The monitor the rendered images ``xyz1``, ``xyz2`` are shown on.
 
     Returns
     -------
@@ -176,12 +208,18 @@ def delta_e(xyz1, xyz2, white, method="CIE 1976"):
     """
     method = _method(method)
     w = check_white(white)
-    a, b = check_pair(xyz1, xyz2)
-    return _delta_e_map(a, b, w, method)
+    a, b, to_a, to_b = rendered_pair(xyz1, xyz2, monitor)
+    return _delta_e_map(a, b, w, method, to_a, to_b)
 
 
-def _delta_e_map(a, b, white, method):
+def _delta_e_map(a, b, white, method, to_a=None, to_b=None):
     """dE map of two checked XYZ images under a checked white, by chunks of pixels: two Lab images and
-    their difference never exist at full size."""
-    return map_pixels(lambda x, y: delta_e_lab(_xyz_to_lab(x, white), _xyz_to_lab(y, white), method)[:, None],
-                      a, b)[..., 0]
+    their difference never exist at full size. ``to_a``, ``to_b``: row converters to XYZ, when ``a``, ``b``
+    are rendered monitor values (:func:`rendered_pair`)."""
+
+    def de(x, y):
+        x, y = (x if f is None else f(x)), (y if g is None else g(y))
+        return delta_e_lab(_xyz_to_lab(x, white), _xyz_to_lab(y, white), method)[:, None]
+
+    f, g = to_a, to_b
+    return map_pixels(de, a, b)[..., 0]

@@ -26,10 +26,13 @@ Speed: the horizontal-then-vertical separable passes with their mirrored
 padding are exactly one 2-D convolution of the image mirrored on all sides
 (a horizontal pass acts on each row alone, so it commutes with copying rows),
 so each channel is filtered here by FFT products with the summed 2-D
-kernel, whose spectrum is cached, one band of 512 output rows at a time
-(each band's FFT takes the rows its kernel reaches: the same numbers as
-one transform of the whole image, in bounded memory; a float32 image is
-transformed in single precision). This is the fast path the explorer uses
+kernel, whose spectrum is cached, one band of output rows at a time (512,
+fewer for images over 2048 pixels wide), all three channels of both
+images together: each band's FFT takes the rows its kernel reaches (the
+same numbers as one transform of the whole image), and its filtered values
+go to Lab and the difference at once, so no filtered, opponent or (given
+rendered images and their monitor) XYZ image exists at full size; a
+float32 image is transformed in single precision. This is the fast path the explorer uses
 on every slider move; ``tests/test_scielab.py`` checks it against a direct
 2-D convolution within 1e-9.
 
@@ -64,8 +67,9 @@ import math
 import numpy as np
 import scipy.fft
 
+from .._chunks import map_pixels
 from ..errors import ParameterError
-from .cielab import _delta_e_map, _method, _xyz_to_lab, check_pair, check_white, check_xyz
+from .cielab import _delta_e_map, _method, _xyz_to_lab, check_white, check_xyz, rendered_pair
 
 __all__ = [
     "XYZ_TO_OPPONENT",
@@ -248,6 +252,8 @@ def _plan(spd, shape):
 # ---------------------------------------------------------------------------
 #: Output rows filtered per FFT: bounds the transform's memory on large images.
 BAND_ROWS = 512
+#: Pixels per band at most (fewer rows for wide images, not under 128).
+BAND_PIXELS = 1 << 19
 
 
 @functools.lru_cache(maxsize=16)
@@ -265,46 +271,80 @@ def _band_spectra(spd, cy, cx, fy, fx, dtype):
     return spectra
 
 
-def _filter_plane(plane, ch, spd, out):
-    """Filter one opponent plane (H, W) with channel ``ch``'s kernel into ``out`` (H, W), by bands of rows.
+def _band_rows(width):
+    """Output rows per band: :data:`BAND_ROWS`, fewer for images wider than :data:`BAND_PIXELS` / 512
+    (at least 128), so a band's temporaries stay a few tens of MiB."""
+    return int(min(BAND_ROWS, max(128, BAND_PIXELS // max(int(width), 1))))
 
-    The plane is mirrored by ``py``, ``px`` (:func:`_plan`), zero beyond;
-    each band of output rows is one zero-padded FFT product of the rows it
-    reaches (its own plus ``cy`` above and below), the linear convolution's
-    valid part kept: the numbers of one FFT over the whole image (to
-    rounding), with memory bounded by the band. In the plane's dtype
-    (float32 stays float32: scipy.fft transforms in single precision).
+
+def _filtered_bands(image, spd, *, opponent_in=False, opponent_out=False, to_xyz=None):
+    """Yield ``(i0, i1, band)``: output rows i0..i1 of the S-CIELAB filtered image (H, W, 3), band by band.
+
+    ``image`` (H, W, 3) is XYZ (or opponent channels with ``opponent_in``,
+    or values that ``to_xyz`` takes, by rows (n, 3), to XYZ); each band comes back as XYZ (or opponent channels with
+    ``opponent_out``). For a band of output rows, the rows its kernels reach
+    (its own plus ``cy`` above and below, of the image mirrored by ``py``,
+    ``px``, :func:`_plan`, zero beyond) are taken to opponent space, and
+    each channel is one zero-padded FFT product with its kernel's spectrum,
+    the linear convolution's valid part kept: the numbers of one FFT over
+    the whole image (to rounding). No full-size temporary exists: opponent
+    planes, their transforms and the filtered values are a band's worth
+    (:func:`_band_rows`: ~15 MiB each for a 4000-pixel-wide image), so callers
+    that turn each band into Lab or a difference at once (:func:`scielab`)
+    hold nothing of the image's size but their inputs and output. In the
+    image's dtype (float32 stays float32: scipy.fft transforms in single
+    precision).
     """
-    H, W = plane.shape
+    H, W = image.shape[:2]
+    dt = image.dtype
     py, px, cy, cx = _plan(spd, (H, W))
-    padded = np.pad(plane, ((py, py), (px, px)), mode="symmetric")
-    PH = padded.shape[0]
-    band = min(H, BAND_ROWS)
+    band = min(H, _band_rows(W))
     fy = scipy.fft.next_fast_len(band + 2 * cy, real=True)
     fx = scipy.fft.next_fast_len(W + 2 * px + 2 * cx, real=True)
-    spectrum = _band_spectra(spd, cy, cx, fy, fx, plane.dtype.type)[ch]
-    buf = np.zeros((band + 2 * cy, W + 2 * px + 2 * cx), plane.dtype)
+    spectra = _band_spectra(spd, cy, cx, fy, fx, dt.type)
+    source_row = np.pad(np.arange(H), py, mode="symmetric")  # the image row of each mirrored row
+    to_opp, from_opp = XYZ_TO_OPPONENT.astype(dt), OPPONENT_TO_XYZ.astype(dt)
+    buf = np.zeros((band + 2 * cy, W + 2 * px + 2 * cx), dt)
+    # one set of band buffers for the whole image: a band handed out is valid until the next is asked for
+    filtered = np.empty((3, band, W), dt)
+    back = np.empty((band, W, 3), dt)
     for i0 in range(0, H, band):
         i1 = min(H, i0 + band)
-        # rows of the padded plane that output rows i0..i1 reach: [i0 + py - cy, i1 + py + cy)
+        # mirrored rows that output rows i0..i1 reach: [i0 + py - cy, i1 + py + cy), zero outside the mirror
         lo, hi = i0 + py - cy, i1 + py + cy
-        buf[:] = 0
-        s0, s1 = max(lo, 0), min(hi, PH)
-        buf[s0 - lo : s1 - lo, cx : cx + W + 2 * px] = padded[s0:s1]
-        f = scipy.fft.rfft2(buf, s=(fy, fx))
-        f *= spectrum
-        full = scipy.fft.irfft2(f, s=(fy, fx))
-        out[i0:i1] = full[2 * cy : 2 * cy + (i1 - i0), 2 * cx + px : 2 * cx + px + W]
+        s0, s1 = max(lo, 0), min(hi, source_row.size)
+        take = source_row[s0:s1]
+        if take[-1] - take[0] == take.size - 1:  # no mirrored row: a view, not a copy
+            rows = image[take[0] : take[-1] + 1]
+        else:
+            rows = image[take]
+        if to_xyz is not None:
+            rows = map_pixels(to_xyz, rows)  # by chunks: the conversion's temporaries stay a few MiB
+        for ch in range(3):
+            # this channel's opponent plane of the rows (the numbers of the whole image's transform)
+            opp = rows[..., ch] if opponent_in else np.einsum("j,hwj->hw", to_opp[ch], rows)
+            buf[:] = 0
+            buf[s0 - lo : s1 - lo, cx : cx + W + 2 * px] = np.pad(opp, ((0, 0), (px, px)), mode="symmetric")
+            del opp
+            f = scipy.fft.rfft2(buf, s=(fy, fx))
+            f *= spectra[ch]
+            full = scipy.fft.irfft2(f, s=(fy, fx), overwrite_x=True)
+            filtered[ch, : i1 - i0] = full[2 * cy : 2 * cy + (i1 - i0), 2 * cx + px : 2 * cx + px + W]
+            del f, full
+        del rows
+        part = filtered[:, : i1 - i0]
+        if opponent_out:
+            back[: i1 - i0] = np.moveaxis(part, 0, -1)
+        else:
+            np.einsum("ij,jhw->hwi", from_opp, part, out=back[: i1 - i0])
+        yield i0, i1, back[: i1 - i0]
 
 
-def _filter_channels(planes, spd):
-    """Filter planes (..., 3, H, W) of opponent channels with their S-CIELAB kernels."""
-    planes = np.asarray(planes)
-    if planes.dtype not in (np.float32, np.float64):
-        planes = planes.astype(np.float64)
-    out = np.empty(planes.shape, planes.dtype)
-    for idx in np.ndindex(planes.shape[:-2]):
-        _filter_plane(planes[idx], idx[-1], spd, out[idx])
+def _filter_image(image, spd, **kw):
+    """The whole filtered image (H, W, 3) of :func:`_filtered_bands`, written band by band."""
+    out = np.empty(image.shape, image.dtype)
+    for i0, i1, band in _filtered_bands(image, spd, **kw):
+        out[i0:i1] = band
     return out
 
 
@@ -327,7 +367,7 @@ def filter_opponent(opponent, samples_per_degree):
     o = o if o.dtype in (np.float32, np.float64) else o.astype(np.float64)
     if o.ndim != 3 or o.shape[-1] != 3:
         raise ParameterError("opponent", f"must be an (H, W, 3) image, got shape {o.shape}")
-    return np.moveaxis(_filter_channels(np.moveaxis(o, -1, -3), spd), -3, -1)
+    return _filter_image(o, spd, opponent_in=True, opponent_out=True)
 
 
 def scielab_filter(xyz, samples_per_degree):
@@ -341,12 +381,8 @@ def scielab_filter(xyz, samples_per_degree):
 
 
 def _scielab_filter(xyz, spd):
-    # (..., H, W, 3) -> opponent planes (..., 3, H, W) -> filtered in place -> XYZ (..., H, W, 3)
-    dt = xyz.dtype
-    opp = np.einsum("ij,...hwj->...ihw", XYZ_TO_OPPONENT.astype(dt), xyz)
-    for idx in np.ndindex(opp.shape[:-2]):
-        _filter_plane(opp[idx].copy(), idx[-1], spd, opp[idx])
-    return np.einsum("ij,...jhw->...hwi", OPPONENT_TO_XYZ.astype(dt), opp)
+    """XYZ (H, W, 3) -> opponent -> filtered -> XYZ, band by band (:func:`_filtered_bands`)."""
+    return _filter_image(xyz, spd)
 
 
 def filtered_lab(xyz, samples_per_degree, white):
@@ -360,10 +396,13 @@ def filtered_lab(xyz, samples_per_degree, white):
     a = check_xyz(xyz, "xyz")
     if a.ndim != 3:
         raise ParameterError("xyz", f"must be an (H, W, 3) image, got shape {a.shape}")
-    return _xyz_to_lab(_scielab_filter(a, spd), w)
+    out = np.empty(a.shape, a.dtype)
+    for i0, i1, band in _filtered_bands(a, spd):
+        out[i0:i1] = _xyz_to_lab(band, w)
+    return out
 
 
-def scielab(xyz1, xyz2, samples_per_degree, white, *, method="CIE 1976"):
+def scielab(xyz1, xyz2, samples_per_degree, white, *, method="CIE 1976", monitor=None):
     """S-CIELAB difference map between two XYZ images (chapter 4.3; Zhang & Wandell 1997).
 
     Parameters
@@ -379,6 +418,10 @@ def scielab(xyz1, xyz2, samples_per_degree, white, *, method="CIE 1976"):
         XYZ of the reference white (all positive).
     method : {"CIE 1976", "CIE 2000"}
         The colour difference applied after filtering.
+    monitor : Monitor or name, optional
+        Given, ``xyz1`` and ``xyz2`` are the rendered images (CameraImage,
+        space "monitor") shown on it, taken to XYZ band by band (the numbers
+        of :func:`camsim_core.to_xyz`): no full-size XYZ image is made.
 
     Returns
     -------
@@ -388,9 +431,15 @@ def scielab(xyz1, xyz2, samples_per_degree, white, *, method="CIE 1976"):
     method = _method(method)
     spd = _check_spd(samples_per_degree)
     w = check_white(white)
-    a, b = check_pair(xyz1, xyz2)
+    a, b, to_a, to_b = rendered_pair(xyz1, xyz2, monitor)
     if a.ndim != 3:
         raise ParameterError("xyz1", f"must be an (H, W, 3) image, got shape {a.shape}")
-    # one image at a time: its opponent planes are filtered in place, band by band; then Lab and the
-    # difference by chunks of pixels
-    return _delta_e_map(_scielab_filter(a, spd), _scielab_filter(b, spd), w, method)
+    # both images band by band: the filtered bands of each go to Lab and their difference at once, so
+    # neither filtered image exists at full size
+    out = None
+    for (i0, i1, fa), (_, _, fb) in zip(_filtered_bands(a, spd, to_xyz=to_a), _filtered_bands(b, spd, to_xyz=to_b)):
+        d = _delta_e_map(fa, fb, w, method)
+        if out is None:
+            out = np.empty(a.shape[:2], d.dtype)
+        out[i0:i1] = d
+    return out

@@ -38,13 +38,24 @@ def to_xyz(rendered, monitor):
 
     In the image's float dtype (a float32 rendering gives float32 XYZ).
     """
+    data, convert = xyz_converter(rendered, monitor)
+    return map_pixels(convert, data)  # by chunks: no full-size temporaries
+
+
+def xyz_converter(rendered, monitor, name="rendered"):
+    """The checked frame-buffer values (H, W, 3) of ``rendered`` and the function taking rows of them (n, 3) to XYZ.
+
+    For callers that need XYZ a part at a time (the metrics, by chunks or
+    bands of rows) without holding a full XYZ image; :func:`to_xyz` is
+    ``map_pixels(convert, data)``.
+    """
     if getattr(rendered, "space", None) != "monitor":
-        raise ParameterError("rendered", f"needs a rendered monitor image (space 'monitor'), got {getattr(rendered, 'space', type(rendered).__name__)!r}")
+        raise ParameterError(name, f"needs a rendered monitor image (space 'monitor'), got {getattr(rendered, 'space', type(rendered).__name__)!r}")
     data = np.asarray(rendered.data)
     if data.dtype not in (np.float32, np.float64):
         data = data.astype(np.float64)
     if data.ndim != 3 or data.shape[2] != 3:
-        raise ParameterError("rendered", f"expected (H, W, 3) monitor values, got {data.shape}")
+        raise ParameterError(name, f"expected (H, W, 3) monitor values, got {data.shape}")
     bits = rendered.bits or monitor.bits
     m = monitor_xyz_matrix(monitor)
 
@@ -55,4 +66,4 @@ def to_xyz(rendered, monitor):
             linear = monitor.settings_to_linear(values / float(2**bits - 1)).astype(values.dtype, copy=False)
         return apply_matrix(linear[:, None, :], m)[:, 0, :]
 
-    return map_pixels(convert, data)  # by chunks: no full-size temporaries
+    return data, convert
