@@ -70,26 +70,45 @@ def _row_denominators(tile, c, shape, ky, kx):
     return row_type, np.array(rows)
 
 
-def _interpolate(data, tile, c, ky, kx, out):
-    """Class ``c`` of the bilinear estimate into ``out`` (H, W), a view of any strides."""
-    H, W, _ = data.shape
+#: Pixels per band of rows (about 1 MiB of float32 per plane: a band's passes stay in the CPU's cache).
+BAND_PIXELS = 1 << 18
+
+
+def _class_plan(tile, c, shape, ky, kx, dtype):
+    """What every band needs of class ``c``: its tile positions, the row types and inverse denominators."""
+    row_type, rows = _row_denominators(tile, c, shape, ky, kx)
+    inv = (1.0 / np.where(rows > 0, rows, 1.0)).astype(dtype)
+    return _positions(tile, c), row_type, inv
+
+
+def _interpolate_rows(data, tile, plan, ky, kx, out, a, b):
+    """Rows a..b of one class's bilinear estimate into ``out`` (H, W), a view of any strides.
+
+    The class's samples of rows a - r .. b + r (r the tent's reach; zero
+    outside the image, as the whole image's constant-mode passes see) are
+    placed in a zero band, passed vertically then horizontally (the second
+    pass written straight into the output rows), multiplied by the inverse
+    sample-count convolution of each row, and the sampled values put back:
+    the numbers of the whole image's passes, one band of rows at a time.
+    """
+    pos, row_type, inv = plan
+    H, W = out.shape
     n, m, _ = tile.shape
-    pos = _positions(tile, c)
-    vals = np.zeros((H, W), out.dtype)
-    for py, px, t in pos:
-        vals[py::n, px::m] += data[py::n, px::m, t]
-    _separable(vals, ky, kx, output=out)
-    row_type, rows = _row_denominators(tile, c, (H, W), ky, kx)
-    inv = 1.0 / np.where(rows > 0, rows, 1.0)
-    inv = inv.astype(out.dtype)
     r = (ky.size - 1) // 2
-    interior = range(min(r, H), max(min(r, H), H - r))
+    lo, hi, top = max(0, a - r), min(H, b + r), a - r  # image rows the band reaches; band row 0 is image row top
+    vals = np.zeros((b - a + 2 * r, W), out.dtype)
+    for py, px, t in pos:
+        s = lo + (py - lo) % n
+        vals[s - top : hi - top : n, px::m] += data[s:hi:n, px::m, t]
+    v = ndimage.correlate1d(vals, ky, axis=0, mode="constant")[r : r + b - a]
+    ndimage.correlate1d(v, kx, axis=1, mode="constant", output=out[a:b])
+    # the denominator repeats with the tile's row phase away from the top and bottom edges
+    ia, ib = max(a, min(r, H)), min(b, max(min(r, H), H - r))
     for p in range(n):
-        start = next((i for i in interior if i % n == p), None)
-        if start is not None:
-            stop = interior.stop
-            out[start:stop:n] *= inv[row_type[start]]
-    for i in list(range(0, min(r, H))) + list(range(max(min(r, H), H - r), H)):
+        start = ia + (p - ia) % n
+        if start < ib:
+            out[start:ib:n] *= inv[row_type[start]]
+    for i in [i for i in range(a, b) if not ia <= i < ib]:
         out[i] *= inv[row_type[i]]
     # sampled values are kept unchanged (the mean over tiers where several sample c)
     done = set()
@@ -98,10 +117,11 @@ def _interpolate(data, tile, c, ky, kx, out):
             continue
         done.add((py, px))
         tiers = [t for (qy, qx, t) in pos if (qy, qx) == (py, px)]
-        v = data[py::n, px::m, tiers[0]].astype(out.dtype)
+        s = a + (py - a) % n
+        v = data[s:b:n, px::m, tiers[0]].astype(out.dtype)
         for t in tiers[1:]:
-            v = v + data[py::n, px::m, t]
-        out[py::n, px::m] = v / len(tiers) if len(tiers) > 1 else v
+            v = v + data[s:b:n, px::m, t]
+        out[s:b:n, px::m] = v / len(tiers) if len(tiers) > 1 else v
 
 
 def bilinear_planes(data, tile, k):
@@ -112,17 +132,27 @@ def bilinear_planes(data, tile, k):
     per row by the inverse of the sample-count convolution, which repeats
     with the tile except near the top and bottom edges
     (:func:`_row_denominators`), so the counts are never convolved at full size.
+    By bands of rows (:data:`BAND_PIXELS`, a whole tile's rows at least):
+    a band's passes stay in the CPU's cache, so the time is linear in the
+    pixel count, and the temporaries are a band's, not a frame's.
     """
     dtype = data.dtype if data.dtype in (np.float32, np.float64) else np.float64
     ky, kx = tent(tile.shape[0]), tent(tile.shape[1])
-    out = np.empty(data.shape[:2] + (k,), dtype)
+    H, W = data.shape[:2]
+    out = np.empty((H, W, k), dtype)
+    plans = [_class_plan(tile, c, (H, W), ky, kx, dtype) for c in range(k)]
+    n = tile.shape[0]
+    band = max(n, -(-max(1, BAND_PIXELS // max(W, 1)) // n) * n)
+    count = -(-H // band)
 
-    def classes(a, b):
-        for c in range(a, b):
-            _interpolate(data, tile, c, ky, kx, out[:, :, c])
+    def bands(i, j):
+        for bi in range(i, j):
+            a, b = bi * band, min(H, (bi + 1) * band)
+            for c in range(k):
+                _interpolate_rows(data, tile, plans[c], ky, kx, out[:, :, c], a, b)
 
-    # the classes on the machine's cores (scipy.ndimage's filters release the GIL; each class is computed alone)
-    run_blocks(classes, split(k, CORES), values=out.size)
+    # the bands on the machine's cores (scipy.ndimage's filters release the GIL; each band is written alone)
+    run_blocks(bands, split(count, CORES), values=out.size)
     return out
 
 
