@@ -22,6 +22,8 @@ from functools import lru_cache
 import numpy as np
 from scipy import ndimage
 
+from .._parallel import CORES, run_blocks, split
+
 __all__ = []
 
 
@@ -102,5 +104,8 @@ def median_filter(plane, size):
     r = size // 2
     padded = np.pad(plane, r, mode="reflect")  # scipy's "mirror"
     out = np.empty(plane.shape, plane.dtype)
-    _kernel()(padded, size, median_network(size * size), out)
+    kernel, pairs = _kernel(), median_network(size * size)
+    # blocks of output rows on the machine's cores (the kernel releases the GIL; each row is computed alone)
+    run_blocks(lambda a, b: kernel(padded[a : b + 2 * r], size, pairs, out[a:b]), split(out.shape[0], CORES),
+               values=out.size * size)
     return out

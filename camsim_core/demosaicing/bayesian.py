@@ -89,6 +89,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._parallel import CORES, run_blocks, split
 from ..errors import ParameterError
 from ._masks import check_mosaiced, phase_pad_index
 from .bilinear import bilinear_planes
@@ -270,30 +271,42 @@ def apply_filters(data, tile, filters, half, rows=32):
     del padded
     k = next(iter(filters.values()))[0].shape[0]
     out = np.empty((h, w, k), data.dtype if data.dtype in (np.float32, np.float64) else np.float64)
+    jobs = []
     for (py, px), (f, bias, (dy, dx, tier)) in filters.items():
         hp, wp = len(range(py, h, n)), len(range(px, w, m))
         if hp == 0 or wp == 0:
             continue
-        f32 = f.astype(np.float32)
-        bias_out = bias.astype(out.dtype)
         y0 = [half + py + d for d in dy]
         x0 = [half + px + d for d in dx]
         src = [phases[(a % n, b % m)][t] for a, b, t in zip(y0, x0, tier)]
-        ys = [a // n for a in y0]
-        xs = [b // m for b in x0]
-        stack = np.empty((dy.size, min(rows, hp), wp), np.float32)
-        est = np.empty((k, min(rows, hp) * wp), np.float32)
-        view = out[py::n, px::m, :]
-        for r0 in range(0, hp, rows):
-            r1 = min(hp, r0 + rows)
-            st = stack[:, : r1 - r0]
-            for o in range(dy.size):
-                st[o] = src[o][ys[o] + r0 : ys[o] + r1, xs[o] : xs[o] + wp]
-            e = est[:, : (r1 - r0) * wp]
-            np.matmul(f32, st.reshape(dy.size, -1), out=e)
-            block = view[r0:r1]
-            block[...] = np.moveaxis(e.reshape(k, r1 - r0, wp), 0, -1)
-            block += bias_out
+        jobs.append((f.astype(np.float32), bias.astype(out.dtype), src, [a // n for a in y0], [b // m for b in x0],
+                     hp, wp, out[py::n, px::m, :]))
+
+    def phase_rows(a, b):
+        """Phase rows a..b of every tile position (each thread its own buffers; each writes its own pixels)."""
+        for f32, bias_out, src, ys, xs, hp, wp, view in jobs:
+            stop = min(b, hp)
+            if a >= stop:
+                continue
+            o_count = len(src)
+            stack = np.empty((o_count, min(rows, stop - a), wp), np.float32)
+            est = np.empty((k, min(rows, stop - a) * wp), np.float32)
+            for r0 in range(a, stop, rows):
+                r1 = min(stop, r0 + rows)
+                st = stack[:, : r1 - r0]
+                for o in range(o_count):
+                    st[o] = src[o][ys[o] + r0 : ys[o] + r1, xs[o] : xs[o] + wp]
+                e = est[:, : (r1 - r0) * wp]
+                np.matmul(f32, st.reshape(o_count, -1), out=e)
+                block = view[r0:r1]
+                block[...] = np.moveaxis(e.reshape(k, r1 - r0, wp), 0, -1)
+                block += bias_out
+
+    # blocks of phase rows on the machine's cores (BLAS and numpy's copies release the GIL), in whole
+    # multiples of ``rows`` so that every block is cut where one thread alone would cut it
+    hp_max = max((j[5] for j in jobs), default=0)
+    blocks = -(-hp_max // rows)
+    run_blocks(phase_rows, [min(hp_max, e * rows) for e in split(blocks, CORES)], values=out.size)
     return out
 
 
