@@ -86,6 +86,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -253,61 +254,90 @@ def posterior_filters(prior, tile, window, noise_var, ridge=1e-6, local_mean=Tru
 def apply_filters(data, tile, filters, half, rows=32):
     """Apply per-position linear filters to mosaic planes (H, W, T) -> (H, W, K).
 
-    The padded mosaic is split once into its n x m tile phases (contiguous
-    sub-images), so every sample the window of an output phase needs is a
-    plain slice of one of them; for each tile position and each block of
-    ``rows`` output rows, the O slices are stacked (a cache-sized buffer,
-    not O full-size planes) and multiplied by the (K, O) filter matrix in
-    one BLAS call, in single precision (relative error ~1e-7, far below any
-    camera's noise); the bias is added in the output's precision (the
-    mosaic's dtype: float32 stays float32).
+    The mosaic, padded by phase-keeping reflection, is split once into its
+    n x m tile phases (contiguous float32 sub-images, one per phase and
+    tier), so every sample the window of an output phase needs lies at a
+    fixed offset in one of them. A compiled loop (:func:`_filter_rows`,
+    numba) then accumulates, per output row of each tile position, the O
+    weighted phase rows in single precision (relative error ~1e-7, far below
+    any camera's noise) and adds the bias in the output's precision (the
+    mosaic's dtype: float32 stays float32); blocks of ``rows`` phase rows go
+    to the machine's cores. numpy needs the O shifted samples of every pixel
+    stacked before one matrix product (49 copies a pixel on a Bayer tile);
+    the loop reads each once from cache, ~3x faster at 12 megapixels.
     """
-    h, w, _ = data.shape
+    h, w, t_count = data.shape
     n, m, _ = tile.shape
     iy = phase_pad_index(h, half, n)
     ix = phase_pad_index(w, half, m)
-    padded = data[iy][:, ix].astype(np.float32)
-    phases = {(qy, qx): np.ascontiguousarray(np.moveaxis(padded[qy::n, qx::m], -1, 0)) for qy in range(n) for qx in range(m)}
-    del padded
-    k = next(iter(filters.values()))[0].shape[0]
+    hp_max, wp_max = -(-iy.size // n), -(-ix.size // m)
+    planes = np.zeros((n * m * t_count, hp_max, wp_max), np.float32)
+    for qy in range(n):
+        for qx in range(m):
+            part = data[np.ix_(iy[qy::n], ix[qx::m])]
+            for t in range(t_count):
+                planes[(qy * m + qx) * t_count + t, : part.shape[0], : part.shape[1]] = part[:, :, t]
+    items = sorted(filters.items())
+    k = items[0][1][0].shape[0]
+    o_count = max(f.shape[1] for _, (f, _, _) in items)
     out = np.empty((h, w, k), data.dtype if data.dtype in (np.float32, np.float64) else np.float64)
-    jobs = []
-    for (py, px), (f, bias, (dy, dx, tier)) in filters.items():
-        hp, wp = len(range(py, h, n)), len(range(px, w, m))
-        if hp == 0 or wp == 0:
-            continue
-        y0 = [half + py + d for d in dy]
-        x0 = [half + px + d for d in dx]
-        src = [phases[(a % n, b % m)][t] for a, b, t in zip(y0, x0, tier)]
-        jobs.append((f.astype(np.float32), bias.astype(out.dtype), src, [a // n for a in y0], [b // m for b in x0],
-                     hp, wp, out[py::n, px::m, :]))
-
-    def phase_rows(a, b):
-        """Phase rows a..b of every tile position (each thread its own buffers; each writes its own pixels)."""
-        for f32, bias_out, src, ys, xs, hp, wp, view in jobs:
-            stop = min(b, hp)
-            if a >= stop:
-                continue
-            o_count = len(src)
-            stack = np.empty((o_count, min(rows, stop - a), wp), np.float32)
-            est = np.empty((k, min(rows, stop - a) * wp), np.float32)
-            for r0 in range(a, stop, rows):
-                r1 = min(stop, r0 + rows)
-                st = stack[:, : r1 - r0]
-                for o in range(o_count):
-                    st[o] = src[o][ys[o] + r0 : ys[o] + r1, xs[o] : xs[o] + wp]
-                e = est[:, : (r1 - r0) * wp]
-                np.matmul(f32, st.reshape(o_count, -1), out=e)
-                block = view[r0:r1]
-                block[...] = np.moveaxis(e.reshape(k, r1 - r0, wp), 0, -1)
-                block += bias_out
-
-    # blocks of phase rows on the machine's cores (BLAS and numpy's copies release the GIL), in whole
-    # multiples of ``rows`` so that every block is cut where one thread alone would cut it
-    hp_max = max((j[5] for j in jobs), default=0)
-    blocks = -(-hp_max // rows)
-    run_blocks(phase_rows, [min(hp_max, e * rows) for e in split(blocks, CORES)], values=out.size)
+    count = len(items)
+    weights = np.zeros((count, k, o_count), np.float32)
+    bias = np.zeros((count, k), out.dtype)
+    plane, ys, xs = (np.zeros((count, o_count), np.int64) for _ in range(3))
+    pos = np.zeros((count, 4), np.int64)  # py, px, phase rows, phase columns
+    for i, ((py, px), (f, b, (dy, dx, tier))) in enumerate(items):
+        weights[i, :, : f.shape[1]] = f
+        bias[i] = b
+        a, c = half + py + np.asarray(dy), half + px + np.asarray(dx)
+        plane[i, : f.shape[1]] = ((a % n) * m + c % m) * t_count + np.asarray(tier)
+        ys[i, : f.shape[1]], xs[i, : f.shape[1]] = a // n, c // m
+        pos[i] = py, px, len(range(py, h, n)), len(range(px, w, m))
+    kernel = _filter_kernel()
+    edges = [min(int(pos[:, 2].max()), e * rows) for e in split(-(-int(pos[:, 2].max()) // rows), CORES)]
+    # blocks of phase rows on the machine's cores (the kernel releases the GIL; each block writes its own rows)
+    run_blocks(lambda a, b: kernel(planes, weights, bias, plane, ys, xs, pos, n, m, out, a, b), edges, values=out.size)
     return out
+
+
+def _filter_rows(planes, weights, bias, plane, ys, xs, pos, n, m, out, r0, r1):
+    """Phase rows r0..r1 of every tile position: ``out = weights @ samples + bias`` (see :func:`apply_filters`).
+
+    Compiled by numba (:func:`_filter_kernel`). For output phase row ``r``
+    of position ``p``, tap ``o`` reads row ``ys[p, o] + r`` of phase plane
+    ``plane[p, o]`` from column ``xs[p, o]`` on: contiguous, so the
+    innermost loop (over the row's pixels) vectorizes (~20x a scalar loop).
+    """
+    k = weights.shape[1]
+    acc = np.empty((k, planes.shape[2]), np.float32)
+    for r in range(r0, r1):
+        for p in range(pos.shape[0]):
+            hp, wp = pos[p, 2], pos[p, 3]
+            if r >= hp or wp == 0:
+                continue
+            acc[:, :wp] = 0
+            for o in range(weights.shape[2]):
+                # a slice, then plain indices: numba vectorizes this loop (indexing ``row[x0 + j]`` it does not)
+                src = planes[plane[p, o], ys[p, o] + r, xs[p, o] : xs[p, o] + wp]
+                for c in range(k):
+                    wt = weights[p, c, o]
+                    if wt != 0:
+                        a = acc[c]
+                        for j in range(wp):
+                            a[j] += wt * src[j]
+            y = pos[p, 0] + r * n
+            for j in range(wp):
+                x = pos[p, 1] + j * m
+                for c in range(k):
+                    out[y, x, c] = acc[c, j] + bias[p, c]
+
+
+@lru_cache(maxsize=1)
+def _filter_kernel():
+    """The numba-compiled :func:`_filter_rows` (compiled on first use, cached on disk)."""
+    import numba
+
+    return numba.njit(cache=True, nogil=True)(_filter_rows)
 
 
 def demosaic_bayesian(image, window=None, noise_sigma=None, detail=None, local_mean=None, ridge=1e-6, *,
