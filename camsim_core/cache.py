@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._chunks import map_pixels
 from .datasets.sensors import Sensors
 from .errors import CamsimError
 from .image import image_from_scene
@@ -297,10 +298,12 @@ class Pipeline:
         if "cielab" in proc.metrics:
 
             def cielab():
-                # metrics.delta_e, with the ideal image's L*a*b* kept between moves
+                # metrics.delta_e, with the ideal image's L*a*b* kept between moves; by chunks of pixels (cache
+                # sized, on the machine's cores for a large image)
                 xyz, ideal = metrics.cielab.check_pair(_data(result.xyz), _data(result.ideal_xyz))
-                ideal_lab = self._ideal_side(("cielab", t_ixyz), lambda: metrics.cielab._xyz_to_lab(ideal, white))
-                return metrics.delta_e_lab(metrics.cielab._xyz_to_lab(xyz, white), ideal_lab)
+                to_lab = metrics.cielab._xyz_to_lab
+                ideal_lab = self._ideal_side(("cielab", t_ixyz), lambda: map_pixels(lambda x: to_lab(x, white), ideal))
+                return map_pixels(lambda x, ref: metrics.delta_e_lab(to_lab(x, white), ref)[:, None], xyz, ideal_lab)[..., 0]
 
             _, result.delta_e = self._step("delta_e", (t_xyz, t_ixyz), cielab, result)
         if "scielab" in proc.metrics:

@@ -266,3 +266,26 @@ def test_render_with_an_image_dependent_scale_by_chunks(monitor):
     assert small.extra["scale_source"] == big.extra["scale_source"] == "image 99.5th percentile"
     assert big.extra["display_scale"] == pytest.approx(small.extra["display_scale"], rel=1e-3)
     assert np.abs(big.data[: small.data.shape[0], : small.data.shape[1]] - small.data).max() <= 1
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_to_xyz_of_frame_buffer_values_by_its_table_and_otherwise(monitor, dtype):
+    """Whole frame-buffer values go through the monitor's 256-entry table in one compiled pass; a value that is
+    not one (a fraction, out of range, NaN) sends its chunk through the general path. Either way XYZ is
+    683 cmf^T B_M w with w the monitor's own gamma inversion, computed here in float64 from the calibration."""
+    from camsim_core.datasets.sensors import cie1931_xyz
+
+    rng = np.random.default_rng(5)
+    values = rng.integers(0, 256, size=(300, 400, 3)).astype(dtype)
+    img = cs.CameraImage(data=values, wavelengths=monitor.wavelengths, space="monitor", bits=8)
+    m = 683.0 * cie1931_xyz().on(monitor.wavelengths) @ monitor.primaries
+    expect = monitor.settings_to_linear(values.astype(float) / 255.0) @ m.T
+    tol = 2e-6 if dtype == np.float32 else 1e-12
+    got = cs.to_xyz(img, monitor)
+    assert got.dtype == dtype
+    np.testing.assert_allclose(got, expect, rtol=tol, atol=tol * np.abs(expect).max())
+    odd = values.copy()
+    odd[7, 9] = (12.5, 300.0, 3.0)
+    expect[7, 9] = monitor.settings_to_linear(np.clip(odd[7, 9].astype(float) / 255.0, 0, None)) @ m.T
+    got = cs.to_xyz(img.replace(data=odd), monitor)
+    np.testing.assert_allclose(got, expect, rtol=tol, atol=tol * np.abs(expect).max())

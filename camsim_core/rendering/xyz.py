@@ -11,6 +11,8 @@ ambient light is left out (the chapter compares emitted images).
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from .._chunks import map_pixels
@@ -58,12 +60,56 @@ def xyz_converter(rendered, monitor, name="rendered"):
         raise ParameterError(name, f"expected (H, W, 3) monitor values, got {data.shape}")
     bits = rendered.bits or monitor.bits
     m = monitor_xyz_matrix(monitor)
+    dtype = data.dtype
+    if bits == monitor.bits:
+        full = 2**bits - 1
+        table = np.ascontiguousarray(
+            monitor.settings_to_linear(np.arange(full + 1, dtype=float)[:, None].repeat(3, axis=1) / float(full)).T, dtype)
+        m_dt = np.ascontiguousarray(m, dtype)
+        kernel = _xyz_kernel()
 
     def convert(values):
         if bits == monitor.bits:
-            linear = monitor.frame_buffer_to_linear(values)  # a 2**bits table: the same numbers
+            values = np.ascontiguousarray(values)
+            out = np.empty(values.shape, dtype)
+            if kernel(values, table, m_dt, out) < 0:  # every value a table index: done in one pass
+                return out
+            linear = monitor.frame_buffer_to_linear(values)
         else:
             linear = monitor.settings_to_linear(values / float(2**bits - 1)).astype(values.dtype, copy=False)
         return apply_matrix(linear[:, None, :], m)[:, 0, :]
 
     return data, convert
+
+
+def _xyz_rows(values, table, m, out):
+    """XYZ of frame-buffer rows (n, 3): ``m @ [table[0, r], table[1, g], table[2, b]]``; -1, or the first row
+    holding a value that is not a whole number in the table's range (the caller then takes the general path).
+
+    Compiled by numba (:func:`_xyz_kernel`): numpy takes ~8 passes over the
+    pixels for the same (whole-number check, index arithmetic, lookups, a
+    3 x 3 product); this is one, ~5x faster on a megapixel image. In the
+    arrays' dtype (float32 stays float32); the same table values as
+    :meth:`Monitor.frame_buffer_to_linear`, products within rounding of it.
+    """
+    top = table.shape[1] - 1
+    for i in range(values.shape[0]):
+        a, b, c = values[i, 0], values[i, 1], values[i, 2]
+        if not (a >= 0 and a <= top and b >= 0 and b <= top and c >= 0 and c <= top):  # NaN fails too
+            return i
+        ia, ib, ic = int(a), int(b), int(c)
+        if ia != a or ib != b or ic != c:
+            return i
+        la, lb, lc = table[0, ia], table[1, ib], table[2, ic]
+        out[i, 0] = m[0, 0] * la + m[0, 1] * lb + m[0, 2] * lc
+        out[i, 1] = m[1, 0] * la + m[1, 1] * lb + m[1, 2] * lc
+        out[i, 2] = m[2, 0] * la + m[2, 1] * lb + m[2, 2] * lc
+    return -1
+
+
+@lru_cache(maxsize=1)
+def _xyz_kernel():
+    """The numba-compiled :func:`_xyz_rows` (compiled on first use, cached on disk)."""
+    import numba
+
+    return numba.njit(cache=True, nogil=True)(_xyz_rows)
