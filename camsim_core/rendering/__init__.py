@@ -129,10 +129,8 @@ def render(image, monitor, method="baseline", illuminant=None, dimensions=None, 
     extra.update(display_scale=s, scale_source=source, monitor=mon.name)
 
     def frame_buffer(c):
-        linear = _settings(c, m)
-        linear /= linear.dtype.type(s) if linear.dtype == np.float32 else s
-        np.clip(linear, 0.0, 1.0, out=linear)
-        return mon._frame_buffer_chunk(linear, linear.dtype).astype(linear.dtype, copy=False)
+        # settings, display scale, clipping and gamma in one compiled pass (Monitor._settings_to_frame_buffer)
+        return mon._settings_to_frame_buffer(c, m, s)
 
     return image.then(
         f"render:{key}",
