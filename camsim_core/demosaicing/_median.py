@@ -109,3 +109,18 @@ def median_filter(plane, size):
     run_blocks(lambda a, b: kernel(padded[a : b + 2 * r], size, pairs, out[a:b]), split(out.shape[0], CORES),
                values=out.size * size)
     return out
+
+
+def median_of_rows(rows, size, out):
+    """The median of ``rows`` (h + 2 r, W), already mirrored by r = size // 2 above and below: ``out`` (h, W).
+
+    The columns are mirrored here (scipy's "mirror"), then the compiled
+    sorting network runs over the rows: for callers that filter a plane by
+    bands of rows (Freeman's demosaicing) with :func:`median_filter`'s
+    numbers. ``size`` odd, W > r, float32 or float64.
+    """
+    r = size // 2
+    kernel = _kernel()
+    kernel(np.pad(rows, ((0, 0), (r, r)), mode="reflect"), size, median_network(size * size), out)
+    return out
+
