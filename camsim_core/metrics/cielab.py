@@ -218,8 +218,8 @@ def _delta_e_map(a, b, white, method, to_a=None, to_b=None):
     are rendered monitor values (:func:`rendered_pair`)."""
 
     def de(x, y):
-        x, y = (x if f is None else f(x)), (y if g is None else g(y))
+        x = x if to_a is None else to_a(x)
+        y = y if to_b is None else to_b(y)
         return delta_e_lab(_xyz_to_lab(x, white), _xyz_to_lab(y, white), method)[:, None]
 
-    f, g = to_a, to_b
     return map_pixels(de, a, b)[..., 0]

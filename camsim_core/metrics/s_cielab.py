@@ -27,7 +27,7 @@ padding are exactly one 2-D convolution of the image mirrored on all sides
 (a horizontal pass acts on each row alone, so it commutes with copying rows),
 so each channel is filtered here by FFT products with the summed 2-D
 kernel, whose spectrum is cached, one band of output rows at a time (512,
-fewer for images over 2048 pixels wide), all three channels of both
+fewer for images over 1024 pixels wide), all three channels of both
 images together: each band's FFT takes the rows its kernel reaches (the
 same numbers as one transform of the whole image), and its filtered values
 go to Lab and the difference at once, so no filtered, opponent or (given
@@ -281,15 +281,15 @@ def _filtered_bands(image, spd, *, opponent_in=False, opponent_out=False, to_xyz
     """Yield ``(i0, i1, band)``: output rows i0..i1 of the S-CIELAB filtered image (H, W, 3), band by band.
 
     ``image`` (H, W, 3) is XYZ (or opponent channels with ``opponent_in``,
-    or values that ``to_xyz`` takes, by rows (n, 3), to XYZ); each band comes back as XYZ (or opponent channels with
-    ``opponent_out``). For a band of output rows, the rows its kernels reach
+    or values that ``to_xyz`` takes, by rows (n, 3), to XYZ); each band
+    comes back as XYZ (or opponent channels with ``opponent_out``). For a band of output rows, the rows its kernels reach
     (its own plus ``cy`` above and below, of the image mirrored by ``py``,
     ``px``, :func:`_plan`, zero beyond) are taken to opponent space, and
     each channel is one zero-padded FFT product with its kernel's spectrum,
     the linear convolution's valid part kept: the numbers of one FFT over
     the whole image (to rounding). No full-size temporary exists: opponent
     planes, their transforms and the filtered values are a band's worth
-    (:func:`_band_rows`: ~15 MiB each for a 4000-pixel-wide image), so callers
+    (:func:`_band_rows`: ~10 MiB each for a 4000-pixel-wide image), so callers
     that turn each band into Lab or a difference at once (:func:`scielab`)
     hold nothing of the image's size but their inputs and output. In the
     image's dtype (float32 stays float32: scipy.fft transforms in single

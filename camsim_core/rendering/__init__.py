@@ -87,8 +87,8 @@ def render(image, monitor, method="baseline", illuminant=None, dimensions=None, 
         holds ``display_scale``, ``scale_source`` and, for the illuminant
         method, ``illuminant`` (the Spectrum used). The linear settings are
         made and gamma corrected by chunks of pixels and not kept (a
-        12-megapixel image's would be 137 MiB more); ``monitor.
-        frame_buffer_to_linear(data)`` gives them back to 8-bit steps.
+        12-megapixel image's would be 137 MiB more);
+        ``monitor.frame_buffer_to_linear(data)`` gives them back to 8-bit steps.
     """
     key = str(method).lower()
     if key not in METHODS:
