@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ._chunks import map_pixels
+from ._compiled import compiled
 from .datasets import SIMTOOLBOX
 from .errors import FileFormatError, ParameterError
 from .spectra import resample_power, sampling_wavelengths
@@ -174,9 +175,8 @@ class Monitor:
         idx = v.astype(np.int32)
         if not (np.array_equal(idx, v) and idx.min(initial=0) >= 0 and idx.max(initial=0) <= full):
             return self.settings_to_linear(v / float(full)).astype(dtype, copy=False)
-        table = self.settings_to_linear(np.arange(full + 1, dtype=float)[:, None].repeat(3, axis=1) / float(full))
         idx += np.arange(3, dtype=np.int32) * (full + 1)
-        return table.T.astype(dtype).ravel().take(idx)
+        return _linear_table(self, dtype).ravel().take(idx)
 
     def _settings(self, lin, c):
         """Channel ``c`` of :meth:`linear_to_settings` on values already in [0, 1]."""
@@ -230,12 +230,17 @@ def _render_rows(rows, m, scale, limits, lo, hi, buckets, out, unsure):
     return count
 
 
-@lru_cache(maxsize=1)
-def _render_kernel():
-    """The numba-compiled :func:`_render_rows` (compiled on first use, cached on disk)."""
-    import numba
+_render_kernel = compiled(_render_rows)
 
-    return numba.njit(cache=True, nogil=True)(_render_rows)
+
+@lru_cache(maxsize=16)
+def _linear_table(monitor, dtype):
+    """Per channel, the linear intensity of every frame-buffer value: (3, 2**bits) in ``dtype``, read-only."""
+    full = 2**monitor.bits - 1
+    table = monitor.settings_to_linear(np.arange(full + 1, dtype=float)[:, None].repeat(3, axis=1) / float(full))
+    table = np.ascontiguousarray(table.T, dtype)
+    table.flags.writeable = False
+    return table
 
 
 @lru_cache(maxsize=16)

@@ -22,6 +22,7 @@ from functools import lru_cache
 import numpy as np
 from scipy import ndimage
 
+from .._compiled import compiled
 from .._parallel import CORES, run_blocks, split
 
 __all__ = []
@@ -86,11 +87,7 @@ def _median_rows(padded, size, pairs, out):
             out[i, x] = mid[x]
 
 
-@lru_cache(maxsize=1)
-def _kernel():
-    import numba
-
-    return numba.njit(cache=True, nogil=True)(_median_rows)
+_kernel = compiled(_median_rows)
 
 
 def median_filter(plane, size):
@@ -123,4 +120,3 @@ def median_of_rows(rows, size, out):
     kernel = _kernel()
     kernel(np.pad(rows, ((0, 0), (r, r)), mode="reflect"), size, median_network(size * size), out)
     return out
-

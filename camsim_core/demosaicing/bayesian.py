@@ -86,10 +86,10 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
+from .._compiled import compiled
 from .._parallel import CORES, run_blocks, split
 from ..errors import ParameterError
 from ._masks import check_mosaiced, phase_pad_index
@@ -332,12 +332,7 @@ def _filter_rows(planes, weights, bias, plane, ys, xs, pos, n, m, out, r0, r1):
                     out[y, x, c] = acc[c, j] + bias[p, c]
 
 
-@lru_cache(maxsize=1)
-def _filter_kernel():
-    """The numba-compiled :func:`_filter_rows` (compiled on first use, cached on disk)."""
-    import numba
-
-    return numba.njit(cache=True, nogil=True)(_filter_rows)
+_filter_kernel = compiled(_filter_rows)
 
 
 def demosaic_bayesian(image, window=None, noise_sigma=None, detail=None, local_mean=None, ridge=1e-6, *,

@@ -44,9 +44,10 @@ from functools import lru_cache
 import numpy as np
 import scipy.fft as sfft
 
+from .._compiled import compiled
+from .._parallel import CORES, PARALLEL_VALUES
 from ..simulation._stage import stage
 from ..simulation.sensor import respond, sensor_responses
-from .._parallel import CORES, PARALLEL_VALUES
 from .stage import blur_geometry, optics, optics_active, otf_key, otfs_at, padded_grid, photometry, radial_frequency, \
     reflect_margins
 
@@ -172,12 +173,7 @@ def _combine(spectrum, u, out):
                 out[p, j] += spectrum[p, r, j] * a
 
 
-@lru_cache(maxsize=1)
-def _combine_kernel():
-    """The numba-compiled :func:`_combine` (compiled on first use, cached on disk)."""
-    import numba
-
-    return numba.njit(cache=True, nogil=True)(_combine)
+_combine_kernel = compiled(_combine)
 
 
 @stage(*dict.fromkeys(optics.uses + sensor_responses.uses))

@@ -11,11 +11,11 @@ ambient light is left out (the chapter compares emitted images).
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
 
 from .._chunks import map_pixels
+from .._compiled import compiled
+from ..monitor import _linear_table
 from ..errors import ParameterError
 from ._linear import apply_matrix
 
@@ -62,9 +62,7 @@ def xyz_converter(rendered, monitor, name="rendered"):
     m = monitor_xyz_matrix(monitor)
     dtype = data.dtype
     if bits == monitor.bits:
-        full = 2**bits - 1
-        table = np.ascontiguousarray(
-            monitor.settings_to_linear(np.arange(full + 1, dtype=float)[:, None].repeat(3, axis=1) / float(full)).T, dtype)
+        table = _linear_table(monitor, dtype)  # the table Monitor.frame_buffer_to_linear looks values up in
         m_dt = np.ascontiguousarray(m, dtype)
         kernel = _xyz_kernel()
 
@@ -107,9 +105,4 @@ def _xyz_rows(values, table, m, out):
     return -1
 
 
-@lru_cache(maxsize=1)
-def _xyz_kernel():
-    """The numba-compiled :func:`_xyz_rows` (compiled on first use, cached on disk)."""
-    import numba
-
-    return numba.njit(cache=True, nogil=True)(_xyz_rows)
+_xyz_kernel = compiled(_xyz_rows)

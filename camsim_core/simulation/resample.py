@@ -23,6 +23,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .._compiled import compiled
 from .._parallel import CORES, run_blocks, split
 from ._stage import stage
 
@@ -130,12 +131,7 @@ def _resample_rows(src, iy, wy, ixk, wxk, out):
             o[q] = acc
 
 
-@lru_cache(maxsize=1)
-def _kernel():
-    """The numba-compiled :func:`_resample_rows` (compiled on first use, cached on disk)."""
-    import numba
-
-    return numba.njit(cache=True, nogil=True, fastmath=False)(_resample_rows)
+_kernel = compiled(_resample_rows)
 
 
 @stage("angular_resolution", "distance", "height", "width")
