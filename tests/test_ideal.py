@@ -60,3 +60,19 @@ def test_ideal_is_independent_of_camera_sensors(monitor):
     a = cs.ideal_image(scene, camera_preset("kodak-dcs200"), monitor, exposure=0.05)
     b = cs.ideal_image(scene, camera_preset("gaussian-4", noise_sigma=5.0), monitor, exposure=0.05)
     assert np.array_equal(a.data, b.data)
+
+
+def test_the_ideal_camera_reads_no_file(monkeypatch):
+    """The explorer builds the ideal camera on every move: the shipped camera file behind the presets'
+    geometry is read once per process, not per camera (every preset is frozen, its arrays read-only)."""
+    from camsim_core.camera import load
+
+    load._dcs200_geometry.cache_clear()
+    reads = []
+    real = load.read_scam
+    monkeypatch.setattr(load, "read_scam", lambda path: reads.append(path) or real(path))
+    cam = camera_preset("kodak-dcs200-ir")
+    for exposure in (0.05, 0.06, 0.07):
+        ideal_camera(cam.replace(exposure=exposure))
+    assert len(reads) == 1
+    assert not cam.sensors.values.flags.writeable and not cam.mosaic.flags.writeable

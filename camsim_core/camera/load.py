@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 from pathlib import Path
 
@@ -212,8 +213,13 @@ def _three_numbers(path, lines):
     return start, step, count
 
 
+@functools.lru_cache(maxsize=2)
 def _dcs200_geometry(ir=True):
-    """The DCS-200 file's camera with the chapter's five stages, noiseless as the file's stage list makes it."""
+    """The DCS-200 file's camera with the chapter's five stages, noiseless as the file's stage list makes it.
+
+    Read once per process (a Camera is frozen and its arrays read-only, so presets share it): the ideal
+    image's camera is built from it on every explorer move.
+    """
     cam = read_scam(SIMTOOLBOX / "cameras" / ("kodakdcs200_50mmIR.Scam" if ir else "kodakdcs200_50mm.Scam"))
     return cam.replace(architecture=DEFAULT_ARCHITECTURE, noise_mean=0.0, noise_sigma=0.0)
 
