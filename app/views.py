@@ -829,6 +829,7 @@ class ResultsView:
             return
         label, mean, med = getattr(self, "res_summary", (self.state.metric, None, None))
         steps = [n.removeprefix("stage:") for n, _ in res.ran]
+        engine_s = getattr(res, "elapsed", 0.0) or res.seconds  # wall time (the ideal side may run beside)
         head = "<strong>Computing the new result...</strong> (the images below are the previous one) · " if busy else ""
         if mean is None:
             self.stats.object = f"<p>{head}dE not available</p>"
@@ -836,7 +837,7 @@ class ResultsView:
             view = (f" · viewing {html.escape(str(self.state.viewing))}, {res.samples_per_degree:.4g} samples/deg"
                     if label == "S-CIELAB" and getattr(res, "samples_per_degree", None) else "")
             self.stats.object = (f"<p>{head}<strong>{label}</strong> mean dE <strong>{mean:.2f}</strong> · median "
-                                 f"<strong>{med:.2f}</strong>{view} · engine {1000 * res.seconds:.0f} ms "
+                                 f"<strong>{med:.2f}</strong>{view} · engine {1000 * engine_s:.0f} ms "
                                  f"({', '.join(steps) or 'nothing re-run'})</p>")
         clipped, dark = self._memo("exposure", res.raw, exposure_warnings)
         notes = []
@@ -862,7 +863,7 @@ class ResultsView:
             "skipped": sorted(getattr(res, "skipped", {})),
             "errors": res.errors,
             "ran": [[name, round(t * 1000, 2)] for name, t in res.ran],
-            "engine_ms": round(res.seconds * 1000, 2),
+            "engine_ms": round(engine_s * 1000, 2),
             "clipped": round(clipped, 4), "dark": round(dark, 4),
             "message": self.state.message,
         }

@@ -8,8 +8,8 @@ new result: the status pane reports the new parameters and the stats line
 has changed, plus one animation frame so the canvases have drawn the data
 that arrived in the same message. Printed per action: median and maximum
 ms over ``--repeats`` repetitions (values toggled back and forth), the
-engine time of the same change (reported by the page: the sum of the
-pipeline steps that ran) and the ratio of the median to the goal.
+engine time of the same change (reported by the page: the wall time of
+the pipeline's run) and the ratio of the median to the goal.
 
 Actions: noise, exposure, rendering method, demosaicing method, distance,
 scene change, first complete render after navigation (page load to stats and

@@ -16,8 +16,16 @@ The steps, in order:
   ``xyz`` and ``ideal_xyz`` (both on the monitor), ``delta_e`` (CIELAB) and
   ``scielab`` (S-CIELAB) error maps.
 
+The ideal image's side (``ideal``, ``ideal_xyz`` and the ideal image's
+L*a*b* for each error map) needs nothing of the camera's image: when it must
+be recomputed (a new scene, exposure, geometry or monitor) it runs on a
+thread of its own beside the camera's side, on the core the camera's mostly
+unsplit small steps leave idle (an exposure move on the default scene: ~28
+-> ~22 ms); on one core, and when it is cached, it runs in the calling thread.
+
 Each call to :meth:`Pipeline.run` records which steps ran and how long each
-took (``Result.ran``). A step that fails (a processing routine not written
+took (``Result.ran``, in the order of a serial run) and its wall-clock time
+(``Result.elapsed``). A step that fails (a processing routine not written
 yet, a parameter combination the engine refuses) is reported in
 ``Result.errors`` and the steps that need its output are skipped; nothing is
 cached for it. Results are exactly those of a fresh run (no approximation:
@@ -34,12 +42,15 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import itertools
+import threading
 import time
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ._chunks import map_pixels
+from ._parallel import CORES
 from .datasets.sensors import Sensors
 from .errors import CamsimError
 from .image import image_from_scene
@@ -91,7 +102,10 @@ class Result:
 
     ``raw`` is the simulated camera image; ``delta_e`` and ``scielab`` are
     (H, W) error maps in CIELAB Delta E units against the ideal image;
-    ``ran`` lists ``(step, seconds)`` for the steps that were (re-)computed;
+    ``ran`` lists ``(step, seconds)`` for the steps that were (re-)computed
+    (:attr:`seconds` is their sum); ``elapsed`` is the run's wall-clock time
+    in seconds, less than that sum when the ideal image's side ran beside the
+    camera's;
     ``errors`` maps a failed step to its message; ``skipped`` maps a step
     that was not needed to the reason (a full-colour image is not
     demosaiced: ``demosaiced`` is then ``raw`` itself).
@@ -109,6 +123,7 @@ class Result:
     scielab: object = None
     samples_per_degree: float | None = None
     white: object = None
+    elapsed: float = 0.0
     ran: list = field(default_factory=list)
     errors: dict = field(default_factory=dict)
     skipped: dict = field(default_factory=dict)
@@ -190,6 +205,52 @@ class Pipeline:
             self._ideal_lab[key] = compute()
         return self._ideal_lab[key]
 
+    def _ideal_key(self, camera, proc):
+        """The ideal step's key: the ideal image depends on the camera only through its ideal counterpart
+        (cones, no mosaic, no noise, same geometry and exposure). Raises CamsimError."""
+        from .rendering import ideal_camera
+
+        return (self._memo["scene"][1], _ideal_key(ideal_camera(camera)), proc.monitor)
+
+    def _ideal_stale(self, camera, proc):
+        """True when the ideal image must be recomputed for ``camera`` and ``proc``."""
+        memo = self._memo.get("ideal")
+        try:
+            return memo is None or memo[0] != self._ideal_key(camera, proc)
+        except CamsimError:
+            return False
+
+    def _ideal_branch(self, scene, camera, proc, result):
+        """The ideal image, its XYZ and the L*a*b* of each error map's ideal side, into ``result``;
+        returns the tokens ``(t_ideal, t_ixyz)`` (``None`` for a step that failed)."""
+        from . import ideal_image, load_monitor, metrics, to_xyz
+        from .rendering import white_xyz
+
+        monitor = load_monitor(proc.monitor)
+        try:
+            ideal_key = self._ideal_key(camera, proc)
+        except CamsimError as exc:
+            result.errors["ideal"] = str(exc)
+            return None, None
+        t_ideal, result.ideal = self._step("ideal", ideal_key, lambda: ideal_image(scene, camera, monitor), result)
+        if t_ideal is None:
+            return None, None
+        t_ixyz, result.ideal_xyz = self._step(
+            "ideal_xyz", (t_ideal, proc.monitor), lambda: to_xyz(result.ideal, monitor), result
+        )
+        if t_ixyz is None:
+            return t_ideal, None
+        white = np.asarray(white_xyz(monitor), float)
+        if "cielab" in proc.metrics:
+            self._ideal_side(("cielab", t_ixyz), lambda: _lab_map(_data(result.ideal_xyz), white))
+        if "scielab" in proc.metrics:
+            try:  # the camera's image has the ideal image's geometry: the same samples per degree (else a miss later)
+                spd = _samples_per_degree(result.ideal, proc.viewing)
+            except CamsimError:
+                return t_ideal, t_ixyz
+            self._ideal_side(("scielab", t_ixyz, spd), lambda: metrics.filtered_lab(_data(result.ideal_xyz), spd, white))
+        return t_ideal, t_ixyz
+
     def _step(self, name, key, compute, result):
         """The cached output of ``name`` for ``key``, or compute, time and remember it.
 
@@ -226,16 +287,25 @@ class Pipeline:
         -------
         Result
         """
-        from . import demosaic, ideal_image, load_monitor, metrics, render, to_xyz
-        from .rendering import ideal_camera, white_xyz
+        t0 = time.perf_counter()
+        result = self._run(scene, camera, processing or Processing())
+        result.elapsed = time.perf_counter() - t0
+        return result
 
-        proc = processing or Processing()
+    def _run(self, scene, camera, proc):
+        from . import demosaic, load_monitor, metrics, render, to_xyz
+        from .rendering import white_xyz
+
         result = Result(scene=scene, camera=camera)
         # the scene: compared by identity (shared objects), never copied
         memo = self._memo.get("scene")
         if memo is None or memo[2] is not scene:
             self._memo["scene"] = (id(scene), next(_tokens), scene)
         token, image = self._memo["scene"][1], None
+        # the ideal image's side (ideal image, its XYZ, its L*a*b*) needs nothing of the camera's image: when it
+        # must be recomputed (a new scene, exposure, geometry or monitor) it runs beside the camera's side
+        branch = Result(scene=scene, camera=camera)
+        ideal = _start(lambda: self._ideal_branch(scene, camera, proc, branch), parallel=self._ideal_stale(camera, proc))
         for stage in camera.architecture:
             uses = getattr(stage, "uses", None)
             fields = _all_fields(camera) if uses is None else uses
@@ -248,6 +318,7 @@ class Pipeline:
 
             token, image = self._step(f"stage:{name}", key, compute, result)
             if token is None:
+                _join(result, branch, ideal.result(), camera)
                 return result
         result.raw = image
         sim_token = token
@@ -273,24 +344,10 @@ class Pipeline:
                 lambda: render(result.demosaiced, monitor, method=proc.render, illuminant=illum),
                 result,
             )
-        # the ideal image depends on the camera only through its ideal
-        # counterpart (cones, no mosaic, no noise, same geometry and exposure)
-        scene_token = self._memo["scene"][1]
-        try:
-            ideal_key = (scene_token, _ideal_key(ideal_camera(camera)), proc.monitor)
-        except CamsimError as exc:
-            result.errors["ideal"] = str(exc)
-            t_ideal = None
-        else:
-            t_ideal, result.ideal = self._step("ideal", ideal_key, lambda: ideal_image(scene, camera, monitor), result)
         t_xyz = None
         if t_ren is not None:
             t_xyz, result.xyz = self._step("xyz", (t_ren, proc.monitor), lambda: to_xyz(result.rendered, monitor), result)
-        t_ixyz = None
-        if t_ideal is not None:
-            t_ixyz, result.ideal_xyz = self._step(
-                "ideal_xyz", (t_ideal, proc.monitor), lambda: to_xyz(result.ideal, monitor), result
-            )
+        t_ideal, t_ixyz = _join(result, branch, ideal.result(), camera)
         if t_xyz is None or t_ixyz is None:
             return result
         result.white = np.asarray(white_xyz(monitor), float)
@@ -302,7 +359,7 @@ class Pipeline:
                 # sized, on the machine's cores for a large image)
                 xyz, ideal = metrics.cielab.check_pair(_data(result.xyz), _data(result.ideal_xyz))
                 to_lab = metrics.cielab._xyz_to_lab
-                ideal_lab = self._ideal_side(("cielab", t_ixyz), lambda: map_pixels(lambda x: to_lab(x, white), ideal))
+                ideal_lab = self._ideal_side(("cielab", t_ixyz), lambda: _lab_map(ideal, white))
                 return map_pixels(lambda x, ref: metrics.delta_e_lab(to_lab(x, white), ref)[:, None], xyz, ideal_lab)[..., 0]
 
             _, result.delta_e = self._step("delta_e", (t_xyz, t_ixyz), cielab, result)
@@ -322,6 +379,58 @@ class Pipeline:
 
             _, result.scielab = self._step("scielab", (t_xyz, t_ixyz, spd), scielab, result)
         return result
+
+
+def _lab_map(xyz, white):
+    """L*a*b* of an XYZ image by chunks of pixels (cache sized, on the machine's cores for a large image)."""
+    from .metrics.cielab import _xyz_to_lab
+
+    return map_pixels(lambda x: _xyz_to_lab(x, white), xyz)
+
+
+def _join(result, branch, tokens, camera):
+    """Put the ideal side's outputs, steps and errors (``branch``) into ``result``; returns ``tokens``.
+    The steps keep the order of a serial run, whichever thread ran them."""
+    result.ran.extend(branch.ran)
+    result.ran.sort(key=lambda item: _step_order(item[0], camera))
+    result.errors.update(branch.errors)
+    result.ideal, result.ideal_xyz = branch.ideal, branch.ideal_xyz
+    return tokens
+
+
+def _step_order(name, camera):
+    """Where step ``name`` comes in a serial run: the camera's stages, then :data:`PROCESSING_STEPS`."""
+    stages = [f"stage:{getattr(s, '__name__', repr(s))}" for s in camera.architecture]
+    if name in stages:
+        return stages.index(name)
+    return len(stages) + (PROCESSING_STEPS.index(name) if name in PROCESSING_STEPS else len(PROCESSING_STEPS))
+
+
+_branch_pool = None
+_branch_lock = threading.Lock()
+
+
+def _start(fn, *, parallel):
+    """``fn()`` on a thread of its own when ``parallel`` (and the machine has more than one core), else here;
+    returns an object whose ``result()`` gives its value (raising what it raised).
+
+    The ideal image's side runs on these threads: numpy and the engine's compiled kernels release the GIL,
+    so it uses the core the camera's side leaves (most of the explorer's steps on its images are too small
+    to be split). The pool is not the block pool of :mod:`._parallel` (whose tasks never wait on it), so a
+    branch that splits its own work into blocks cannot deadlock.
+    """
+    global _branch_pool
+    if parallel and CORES > 1:
+        with _branch_lock:
+            if _branch_pool is None:
+                _branch_pool = ThreadPoolExecutor(CORES, thread_name_prefix="camsim-ideal")
+        return _branch_pool.submit(fn)
+    done = Future()
+    try:
+        done.set_result(fn())
+    except BaseException as exc:  # raised again by result(), as from a thread
+        done.set_exception(exc)
+    return done
 
 
 def _ideal_key(ideal_cam):

@@ -168,3 +168,62 @@ def test_a_pipeline_started_from_anothers_snapshot_reruns_only_what_differs(scen
     assert again.ran_steps == [] and np.array_equal(_array(again.rendered), _array(a.rendered))
     fresh = Pipeline().run(scene, camera.replace(noise_sigma=2.0), CIELAB)
     assert np.array_equal(_array(noisy.rendered), _array(fresh.rendered))
+
+
+def test_the_ideal_side_runs_beside_the_camera_side_with_the_same_numbers(scene, camera, monkeypatch):
+    """An exposure move recomputes the ideal image on a thread of its own (the camera's side keeps the
+    calling thread); the steps are listed as a serial run lists them, and the outputs equal a serial run's."""
+    import threading
+
+    from camsim_core import cache
+
+    threads = {}
+    real_ideal_image, real_demosaic = cc.ideal_image, cc.demosaic
+
+    def ideal_image(*args, **kw):
+        threads["ideal"] = threading.current_thread().name
+        return real_ideal_image(*args, **kw)
+
+    def demosaic(*args, **kw):
+        threads["demosaic"] = threading.current_thread().name
+        return real_demosaic(*args, **kw)
+
+    monkeypatch.setattr(cc, "ideal_image", ideal_image)
+    monkeypatch.setattr(cc, "demosaic", demosaic)
+    p = Pipeline()
+    p.run(scene, camera, Processing())
+    r = p.run(scene, camera.replace(exposure=0.12), Processing())
+    here = threading.current_thread().name
+    assert threads["demosaic"] == here
+    assert threads["ideal"] != here and threads["ideal"].startswith("camsim-ideal")
+    assert r.ran_steps == ["stage:sensor_responses", "stage:resample", "stage:mosaic", "stage:noise", "stage:digitize",
+                           "demosaic", "render", "ideal", "xyz", "ideal_xyz", "delta_e", "scielab"]
+    assert 0 < r.elapsed
+    # one core: everything in the calling thread, the same numbers
+    monkeypatch.setattr(cache, "CORES", 1)
+    serial = Pipeline()
+    serial.run(scene, camera, Processing())
+    s = serial.run(scene, camera.replace(exposure=0.12), Processing())
+    assert threads["ideal"] == here
+    assert s.ran_steps == r.ran_steps
+    for name in OUTPUTS:
+        assert np.array_equal(_array(getattr(r, name)), _array(getattr(s, name))), name
+
+
+def test_a_failed_stage_still_reports_the_ideal_side(scene, camera):
+    """A stage that fails stops the camera's side; the ideal image (which does not need it) is still
+    computed and reported, and the failure is not cached."""
+    p = Pipeline()
+    p.run(scene, camera, CIELAB)
+
+    def broken(cam, image):  # refuses the camera, not its ideal counterpart (which has no mosaic)
+        if cam.mosaic is not None:
+            raise cc.ParameterError("broken", "refused on purpose")
+        return image
+
+    bad = camera.replace(exposure=0.12, architecture=camera.architecture[:2] + (broken,) + camera.architecture[3:])
+    r = p.run(scene, bad, CIELAB)
+    assert set(r.errors) == {"stage:broken"} and "refused on purpose" in r.errors["stage:broken"]
+    assert r.raw is None and r.rendered is None and r.delta_e is None
+    assert r.ideal is not None and "ideal" in r.ran_steps
+    assert r.ran_steps.index("stage:broken") < r.ran_steps.index("ideal")
