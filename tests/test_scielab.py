@@ -262,3 +262,27 @@ def test_scielab_of_rendered_images_holds_no_full_size_temporary(rendered_pair):
     transient(1200)  # kernel spectra, FFT plans, tables: made once, not the call's
     small, large = transient(1200), transient(3600)
     assert large - small < 8 * 2**20, f"{small / 2**20:.0f} MiB at 1200 rows, {large / 2**20:.0f} MiB at 3600"
+
+
+def test_xyz_filtering_is_opponent_filtering_between_the_two_matrices():
+    """scielab_filter = XYZ -> opponent (XYZ_TO_OPPONENT), filter_opponent, back (OPPONENT_TO_XYZ): the
+    conversions done pixel by pixel in the filter's own pass give the products numpy gives."""
+    from camsim_core.metrics.s_cielab import OPPONENT_TO_XYZ, XYZ_TO_OPPONENT, scielab_filter
+
+    rng = np.random.default_rng(7)
+    xyz = rng.uniform(0.0, 90.0, size=(37, 53, 3))
+    expected = filter_opponent(xyz @ XYZ_TO_OPPONENT.T, 61.0) @ OPPONENT_TO_XYZ.T
+    np.testing.assert_allclose(scielab_filter(xyz, 61.0), expected, rtol=0, atol=1e-10)
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered")
+def test_opponent_channels_are_filtered_apart():
+    """filter_opponent takes its channels as they are: a non-finite value in one channel (whose transform
+    it fills with NaN) leaves the other two channels' numbers untouched (no 0 * inf mixes them)."""
+    rng = np.random.default_rng(8)
+    opp = rng.normal(size=(30, 40, 3))
+    clean = filter_opponent(opp, 37.0)
+    opp[10, 12, 0] = np.inf
+    out = filter_opponent(opp, 37.0)
+    assert np.isnan(out[..., 0]).all()
+    np.testing.assert_array_equal(out[..., 1:], clean[..., 1:])
