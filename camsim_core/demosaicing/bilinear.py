@@ -15,6 +15,8 @@ Hand-written: colour-demosaicing handles Bayer tiles only.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy import ndimage
 
@@ -74,10 +76,23 @@ def _row_denominators(tile, c, shape, ky, kx):
 BAND_PIXELS = 1 << 18
 
 
-def _class_plan(tile, c, shape, ky, kx, dtype):
-    """What every band needs of class ``c``: its tile positions, the row types and inverse denominators."""
-    row_type, rows = _row_denominators(tile, c, shape, ky, kx)
+def _class_plan(tile, c, shape, dtype):
+    """What every band needs of class ``c``: its tile positions, the row types and inverse denominators.
+
+    Kept for the last few tiles and image shapes (:func:`_cached_plan`): they depend on nothing else, and
+    the explorer demosaics images of one shape and tile move after move (the plan is a third of a
+    bilinear demosaic of the default scene: a Python loop over the rows).
+    """
+    t = np.ascontiguousarray(tile)
+    return _cached_plan(t.tobytes(), t.shape, t.dtype.str, int(c), tuple(int(v) for v in shape), np.dtype(dtype).str)
+
+
+@functools.lru_cache(maxsize=32)
+def _cached_plan(tile_bytes, tile_shape, tile_dtype, c, shape, dtype):
+    tile = np.frombuffer(tile_bytes, tile_dtype).reshape(tile_shape)
+    row_type, rows = _row_denominators(tile, c, shape, tent(tile_shape[0]), tent(tile_shape[1]))
     inv = (1.0 / np.where(rows > 0, rows, 1.0)).astype(dtype)
+    row_type.flags.writeable = inv.flags.writeable = False
     return _positions(tile, c), row_type, inv
 
 
@@ -140,7 +155,7 @@ def bilinear_planes(data, tile, k):
     ky, kx = tent(tile.shape[0]), tent(tile.shape[1])
     H, W = data.shape[:2]
     out = np.empty((H, W, k), dtype)
-    plans = [_class_plan(tile, c, (H, W), ky, kx, dtype) for c in range(k)]
+    plans = [_class_plan(tile, c, (H, W), dtype) for c in range(k)]
     n = tile.shape[0]
     band = max(n, -(-max(1, BAND_PIXELS // max(W, 1)) // n) * n)
     count = -(-H // band)
