@@ -35,6 +35,16 @@ def _executor():
         return _pool
 
 
+def _forget_pool():
+    """In a forked child: the parent's pool threads do not exist there, so the child starts its own pool
+    (a pool object inherited with dead threads would take work and never do it)."""
+    global _pool, _lock
+    _pool, _lock = None, threading.Lock()
+
+
+os.register_at_fork(after_in_child=_forget_pool)
+
+
 def run_blocks(fn, bounds, *, values):
     """``fn(start, stop)`` for each consecutive pair of ``bounds`` (block edges), on the pool's threads when
     ``values`` (the work, in values written) is at least :data:`PARALLEL_VALUES`, else in turn here.

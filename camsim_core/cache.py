@@ -42,6 +42,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import itertools
+import os
 import threading
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -408,6 +409,15 @@ def _step_order(name, camera):
 
 _branch_pool = None
 _branch_lock = threading.Lock()
+
+
+def _forget_branch_pool():
+    """In a forked child (a script's ``multiprocessing`` pool): start a new pool, as :mod:`._parallel` does."""
+    global _branch_pool, _branch_lock
+    _branch_pool, _branch_lock = None, threading.Lock()
+
+
+os.register_at_fork(after_in_child=_forget_branch_pool)
 
 
 def _start(fn, *, parallel):

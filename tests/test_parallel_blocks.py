@@ -1,9 +1,12 @@
 """Sensor-size images on the machine's cores: the same numbers on one core as on many."""
 
+import os
+
 import numpy as np
 import pytest
 
 import camsim_core._parallel as parallel
+from camsim_core._parallel import CORES
 from camsim_core.image import image_from_scene
 from camsim_core.scene import Scene
 from camsim_core.simulation import noise, resample, sensor_responses
@@ -115,3 +118,31 @@ def test_per_pixel_chunks_on_two_cores_equal_one_core(monkeypatch):
     assert one.shape == (1200, 1200)
     np.testing.assert_array_equal(one, two)
     np.testing.assert_allclose(two[700, 900], delta_e(a[700:701, 900:901], b[700:701, 900:901], white)[0, 0], rtol=1e-6)
+
+
+def _work_in_a_forked_child(_):
+    """Blocks on the block pool, and an exposure move whose ideal side runs on the branch pool."""
+    import camsim_core as cc
+    from camsim_core._chunks import map_pixels
+    from camsim_core.cache import Pipeline, Processing
+
+    doubled = map_pixels(lambda c: c * 2, np.ones((3000, 1000, 3)))
+    scene = cc.load_scene("cacaphony290")
+    cam = cc.load_camera("kodak-dcs200-ir").replace(distance=3.32, exposure=0.1, f_stop=11.0)
+    p = Pipeline()
+    p.run(scene, cam, Processing(metrics=("cielab",)))
+    r = p.run(scene, cam.replace(exposure=0.12), Processing(metrics=("cielab",)))
+    return float(doubled.sum()), float(np.nanmean(r.delta_e))
+
+
+@pytest.mark.skipif(not hasattr(os, "fork") or CORES < 2, reason="needs fork and two cores (the pools run in the caller otherwise)")
+def test_a_forked_child_gets_pools_of_its_own():
+    """A script that forks worker processes after using camsim (multiprocessing's default on Linux): the
+    children inherit pool objects whose threads do not exist in them; they must make their own pools, not
+    wait forever for work queued to dead threads."""
+    import multiprocessing
+
+    parent = _work_in_a_forked_child(0)
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        child = pool.map_async(_work_in_a_forked_child, [0]).get(timeout=120)
+    assert child == [parent]
