@@ -69,3 +69,71 @@ def test_server_limits_are_the_documented_defaults():
     lim = state_module.ServerLimits()
     assert (lim.max_sensors, lim.max_tile, lim.max_text, lim.max_json_bytes, lim.max_json_depth) == (16, 8, 256, 65536, 4)
     assert lim.upload.max_upload_bytes == 16 * 2**20 and lim.upload.max_scene_values == 8_000_000
+
+
+class _Cycle:
+    def __init__(self):
+        self.me = self
+
+
+def test_closed_sessions_cycles_are_collected_and_the_heaps_trimmed_once_the_closes_stop():
+    """The release hook of ``camsim serve``: a burst of closes gives one full collection (objects held
+    only by reference cycles are freed) and one heap trim, once no close came for the quiet time."""
+    import asyncio
+    import gc
+    import weakref
+
+    from tornado.ioloop import IOLoop
+
+    from camsim_core.cli.serve import _collect_and_trim_once_quiet
+
+    trims = []
+
+    class Libc:
+        def malloc_trim(self, pad):
+            trims.append(pad)
+
+    loop = IOLoop(make_current=False)
+    gc.disable()  # no automatic collection may free the cycle first
+    try:
+        garbage = _Cycle()
+        gone = weakref.ref(garbage)
+        del garbage
+        seen = {}
+
+        async def closes():
+            hook = _collect_and_trim_once_quiet(Libc(), quiet_s=0.1)
+            for _ in range(3):  # three sessions released 30 ms apart: one collection, after the last
+                hook()
+                await asyncio.sleep(0.03)
+            seen["before"] = (len(trims), gone() is None)
+            await asyncio.sleep(0.3)
+
+        loop.run_sync(closes)
+    finally:
+        loop.close()
+        gc.enable()
+    assert seen["before"] == (0, False)  # nothing while sessions are still closing
+    assert trims == [0] and gone() is None
+
+
+def test_startup_objects_are_frozen_after_garbage_is_collected():
+    """``camsim serve`` freezes what start-up made (later collections skip it), collecting first: garbage
+    present at that moment is freed, not frozen for the life of the server."""
+    import gc
+    import weakref
+
+    from camsim_core.cli.serve import _freeze_startup_objects
+
+    gc.disable()  # no automatic collection may free the cycle first
+    garbage = _Cycle()
+    gone = weakref.ref(garbage)
+    del garbage
+    try:
+        assert gone() is not None
+        _freeze_startup_objects()
+        assert gone() is None
+        assert gc.get_freeze_count() > 0
+    finally:
+        gc.unfreeze()
+        gc.enable()
