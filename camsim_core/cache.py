@@ -39,6 +39,7 @@ No GUI imports: this module is engine code.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import itertools
@@ -206,7 +207,7 @@ class Pipeline:
             self._ideal_lab[key] = compute()
         return self._ideal_lab[key]
 
-    def _ideal_key(self, camera, proc):
+    def _ideal_step_key(self, camera, proc):
         """The ideal step's key: the ideal image depends on the camera only through its ideal counterpart
         (cones, no mosaic, no noise, same geometry and exposure). Raises CamsimError."""
         from .rendering import ideal_camera
@@ -217,7 +218,7 @@ class Pipeline:
         """True when the ideal image must be recomputed for ``camera`` and ``proc``."""
         memo = self._memo.get("ideal")
         try:
-            return memo is None or memo[0] != self._ideal_key(camera, proc)
+            return memo is None or memo[0] != self._ideal_step_key(camera, proc)
         except CamsimError:
             return False
 
@@ -229,7 +230,7 @@ class Pipeline:
 
         monitor = load_monitor(proc.monitor)
         try:
-            ideal_key = self._ideal_key(camera, proc)
+            ideal_key = self._ideal_step_key(camera, proc)
         except CamsimError as exc:
             result.errors["ideal"] = str(exc)
             return None, None
@@ -289,24 +290,33 @@ class Pipeline:
         Result
         """
         t0 = time.perf_counter()
-        result = self._run(scene, camera, processing or Processing())
-        result.elapsed = time.perf_counter() - t0
-        return result
-
-    def _run(self, scene, camera, proc):
-        from . import demosaic, load_monitor, metrics, render, to_xyz
-        from .rendering import white_xyz
-
+        proc = processing or Processing()
         result = Result(scene=scene, camera=camera)
         # the scene: compared by identity (shared objects), never copied
         memo = self._memo.get("scene")
         if memo is None or memo[2] is not scene:
             self._memo["scene"] = (id(scene), next(_tokens), scene)
-        token, image = self._memo["scene"][1], None
         # the ideal image's side (ideal image, its XYZ, its L*a*b*) needs nothing of the camera's image: when it
         # must be recomputed (a new scene, exposure, geometry or monitor) it runs beside the camera's side
         branch = Result(scene=scene, camera=camera)
         ideal = _start(lambda: self._ideal_branch(scene, camera, proc, branch), parallel=self._ideal_stale(camera, proc))
+        try:
+            self._camera_side(scene, camera, proc, result, branch, ideal)
+        except BaseException:
+            # the ideal side ends before the error leaves: nothing of this run keeps writing to the pipeline
+            with contextlib.suppress(BaseException):
+                ideal.result()
+            raise
+        result.elapsed = time.perf_counter() - t0
+        return result
+
+    def _camera_side(self, scene, camera, proc, result, branch, ideal):
+        """The camera's steps and the error maps, into ``result``; the ideal side (``ideal``, writing into
+        ``branch``) is joined once the camera's image is rendered and taken to XYZ."""
+        from . import demosaic, load_monitor, metrics, render, to_xyz
+        from .rendering import white_xyz
+
+        token, image = self._memo["scene"][1], None
         for stage in camera.architecture:
             uses = getattr(stage, "uses", None)
             fields = _all_fields(camera) if uses is None else uses
@@ -320,7 +330,7 @@ class Pipeline:
             token, image = self._step(f"stage:{name}", key, compute, result)
             if token is None:
                 _join(result, branch, ideal.result(), camera)
-                return result
+                return
         result.raw = image
         sim_token = token
 
@@ -350,7 +360,7 @@ class Pipeline:
             t_xyz, result.xyz = self._step("xyz", (t_ren, proc.monitor), lambda: to_xyz(result.rendered, monitor), result)
         t_ideal, t_ixyz = _join(result, branch, ideal.result(), camera)
         if t_xyz is None or t_ixyz is None:
-            return result
+            return
         result.white = np.asarray(white_xyz(monitor), float)
         white = result.white
         if "cielab" in proc.metrics:
@@ -369,7 +379,7 @@ class Pipeline:
                 result.samples_per_degree = _samples_per_degree(result.rendered, proc.viewing)
             except CamsimError as exc:
                 result.errors["scielab"] = str(exc)
-                return result
+                return
             spd = result.samples_per_degree
 
             def scielab():
@@ -379,7 +389,6 @@ class Pipeline:
                 return metrics.delta_e_lab(metrics.filtered_lab(xyz, spd, white), ideal_lab)
 
             _, result.scielab = self._step("scielab", (t_xyz, t_ixyz, spd), scielab, result)
-        return result
 
 
 def _lab_map(xyz, white):

@@ -227,3 +227,31 @@ def test_a_failed_stage_still_reports_the_ideal_side(scene, camera):
     assert r.raw is None and r.rendered is None and r.delta_e is None
     assert r.ideal is not None and "ideal" in r.ran_steps
     assert r.ran_steps.index("stage:broken") < r.ran_steps.index("ideal")
+
+
+def test_an_unexpected_error_waits_for_the_ideal_side(scene, camera, monkeypatch):
+    """An error the pipeline does not report as a step's (here a MemoryError in the demosaicing) leaves
+    ``run`` only after the ideal side running beside it has ended: nothing of that run keeps writing to
+    the pipeline afterwards."""
+    import threading
+    import time as _time
+
+    real_ideal_image = cc.ideal_image
+    ended = threading.Event()
+
+    def slow_ideal_image(*args, **kw):
+        _time.sleep(0.3)
+        out = real_ideal_image(*args, **kw)
+        ended.set()
+        return out
+
+    def no_memory(*args, **kw):
+        raise MemoryError("no memory on purpose")
+
+    p = Pipeline()
+    p.run(scene, camera, CIELAB)
+    monkeypatch.setattr(cc, "ideal_image", slow_ideal_image)
+    monkeypatch.setattr(cc, "demosaic", no_memory)
+    with pytest.raises(MemoryError):
+        p.run(scene, camera.replace(exposure=0.12), CIELAB)
+    assert ended.is_set()
