@@ -214,26 +214,17 @@ class Pipeline:
 
         return (self._memo["scene"][1], _ideal_key(ideal_camera(camera)), proc.monitor)
 
-    def _ideal_stale(self, camera, proc):
-        """True when the ideal image must be recomputed for ``camera`` and ``proc``."""
-        memo = self._memo.get("ideal")
-        try:
-            return memo is None or memo[0] != self._ideal_step_key(camera, proc)
-        except CamsimError:
-            return False
-
-    def _ideal_branch(self, scene, camera, proc, result):
-        """The ideal image, its XYZ and the L*a*b* of each error map's ideal side, into ``result``;
-        returns the tokens ``(t_ideal, t_ixyz)`` (``None`` for a step that failed)."""
+    def _ideal_branch(self, scene, camera, proc, ideal_key, refused, result):
+        """The ideal image (step key ``ideal_key``, or ``refused``: why there is none), its XYZ and the
+        L*a*b* of each error map's ideal side, into ``result``; returns the tokens ``(t_ideal, t_ixyz)``
+        (``None`` for a step that failed)."""
         from . import ideal_image, load_monitor, metrics, to_xyz
         from .rendering import white_xyz
 
-        monitor = load_monitor(proc.monitor)
-        try:
-            ideal_key = self._ideal_step_key(camera, proc)
-        except CamsimError as exc:
-            result.errors["ideal"] = str(exc)
+        if refused is not None:
+            result.errors["ideal"] = refused
             return None, None
+        monitor = load_monitor(proc.monitor)
         t_ideal, result.ideal = self._step("ideal", ideal_key, lambda: ideal_image(scene, camera, monitor), result)
         if t_ideal is None:
             return None, None
@@ -299,7 +290,13 @@ class Pipeline:
         # the ideal image's side (ideal image, its XYZ, its L*a*b*) needs nothing of the camera's image: when it
         # must be recomputed (a new scene, exposure, geometry or monitor) it runs beside the camera's side
         branch = Result(scene=scene, camera=camera)
-        ideal = _start(lambda: self._ideal_branch(scene, camera, proc, branch), parallel=self._ideal_stale(camera, proc))
+        try:
+            ideal_key, refused = self._ideal_step_key(camera, proc), None
+        except CamsimError as exc:
+            ideal_key, refused = None, str(exc)
+        memo = self._memo.get("ideal")
+        stale = ideal_key is not None and (memo is None or memo[0] != ideal_key)
+        ideal = _start(lambda: self._ideal_branch(scene, camera, proc, ideal_key, refused, branch), parallel=stale)
         try:
             self._camera_side(scene, camera, proc, result, branch, ideal)
         except BaseException:

@@ -311,8 +311,7 @@ def _filtered_bands(image, spd, *, opponent_in=False, opponent_out=False, to_xyz
     fx = scipy.fft.next_fast_len(W + 2 * px + 2 * cx, real=True)
     spectra = _band_spectra(spd, cy, cx, fy, fx, dt.type)
     source_row = np.pad(np.arange(H), py, mode="symmetric")  # the image row of each mirrored row
-    to_opp = np.eye(3, dtype=dt) if opponent_in else XYZ_TO_OPPONENT.astype(dt)
-    from_opp = np.eye(3, dtype=dt) if opponent_out else OPPONENT_TO_XYZ.astype(dt)
+    to_opp, from_opp = XYZ_TO_OPPONENT.astype(dt), OPPONENT_TO_XYZ.astype(dt)  # unused by opponent_in / _out
     # one set of band buffers for the whole image: a band handed out is valid until the next is asked for;
     # the opponent planes are written (columns mirrored) into zero-padded transform inputs
     planes = np.zeros((3, fy, fx), dt)
