@@ -32,6 +32,10 @@ def test_cacaphony_planes_times_factors_match_a_direct_read():
     raw = np.fromfile(SIMTOOLBOX / "Cacaphony290" / "550", dtype=">u2").reshape(182, 290)
     factor_550 = 5.06248e-05  # the 16th #Sim#ImageFactors entry of Cacaphony290.Simg
     np.testing.assert_allclose(scene.data[:, :, 15], raw * factor_550)
+    # float32, each value the 16-bit sample times its factor correctly rounded (float32 holds a 16-bit
+    # sample exactly; the product's rounding is 6e-8 relative, far below the samples' own 1.5e-5 step)
+    assert scene.data.dtype == np.float32
+    np.testing.assert_array_equal(scene.data[:, :, 15], (raw * factor_550).astype(np.float32))
     assert scene.distance == 2.375
     assert scene.angular_resolution == (57.3, 57.3)  # hypercam_28mm.Scam
     assert scene.illuminant is not None and scene.illuminant.wavelengths[0] == 380

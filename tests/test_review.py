@@ -66,15 +66,17 @@ def test_measures_match_a_direct_run_of_the_engine(dcs):
     de = cc.metrics.delta_e(np.asarray(cc.to_xyz(rendered, mon).data), np.asarray(cc.to_xyz(ideal, mon).data),
                             np.asarray(white_xyz(mon), float))
     assert np.array_equal(dcs.rendered, rendered.data)
-    assert dcs.measures["cielab"]["mean"] == pytest.approx(float(np.mean(de)), rel=1e-12)
+    assert dcs.measures["cielab"]["mean"] == pytest.approx(float(np.mean(de, dtype=np.float64)), rel=1e-12)
     assert dcs.measures["cielab"]["median"] == pytest.approx(float(np.median(de)), rel=1e-12)
     assert dcs.measures["cielab"]["p95"] == pytest.approx(float(np.percentile(de, 95)), rel=1e-12)
 
 
 def test_ab_difference_against_the_ideal_design_is_the_error_map(dcs, cones):
-    # the cones design renders the ideal image, so dE(dcs, cones) is dcs's own error map
+    # the cones design renders the ideal image, so dE(dcs, cones) is dcs's own error map (to float32 rounding:
+    # the shipped scene is float32, and the cones' rendering and the ideal image round differently: at most
+    # 1.1e-4 dE, in dark pixels where L*a*b* magnifies rounding)
     ab = ab_difference(dcs, cones)
-    assert np.allclose(ab["delta_e"], dcs.delta_e, atol=1e-9)
+    assert np.allclose(ab["delta_e"], dcs.delta_e, rtol=0, atol=5e-4)
     assert ab["b_wins_fraction"] == pytest.approx(float(np.mean(dcs.delta_e > 0)))
     assert ab["a_wins_fraction"] == 0.0
     same = ab_difference(dcs, dcs)

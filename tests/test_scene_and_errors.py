@@ -1,5 +1,6 @@
 """Scenes (.npz round trip, generators) and every bad-input path: clear errors, no output file."""
 
+import dataclasses
 import json
 import numpy as np
 import pytest
@@ -196,8 +197,13 @@ def test_scale_light_scales_radiance_and_illuminant_and_keeps_reflectance():
 def test_a_camera_responds_linearly_to_the_light_level():
     from camsim_core.scene import scale_light
 
-    scene = cs.load_scene("cacaphony290")
+    shipped = cs.load_scene("cacaphony290")
+    scene = dataclasses.replace(shipped, data=shipped.data.astype(np.float64))  # linearity to float64 precision
     cam = cs.load_camera("kodak-dcs200-ir").replace(bits=None, noise_sigma=0.0)
     one = np.asarray(cs.simulate(scene, cam).data, float)
     three = np.asarray(cs.simulate(scale_light(scene, 3.0), cam).data, float)
     np.testing.assert_allclose(three, 3.0 * one, rtol=1e-9, atol=1e-9)
+    # and in the shipped scene's float32, to its rounding
+    one32 = np.asarray(cs.simulate(shipped, cam).data, float)
+    three32 = np.asarray(cs.simulate(scale_light(shipped, 3.0), cam).data, float)
+    np.testing.assert_allclose(three32, 3.0 * one32, rtol=2e-6)

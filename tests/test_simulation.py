@@ -119,12 +119,16 @@ def test_exposure_doubles_and_f_stop_root_two_halves_the_linear_response(cacapho
     np.testing.assert_allclose(cs.simulate(cacaphony, cam, exposure=0.1, f_stop=8.0 * np.sqrt(2)).data, base / 2, rtol=1e-12)
 
 
-def test_sensor_stage_is_the_weighted_sum_scaled_for_exposure(cacaphony, dcs200_ir):
+def test_sensor_stage_is_the_weighted_sum_scaled_for_exposure(cacaphony64, cacaphony, dcs200_ir):
     cam = dcs200_ir.replace(exposure=0.5, f_stop=11.0)
-    img = sensor_responses(cam, image_from_scene(cacaphony))
+    img = sensor_responses(cam, image_from_scene(cacaphony64))
     t = np.array([np.interp(W31, dcs200_ir.sensors.wavelengths, row) for row in dcs200_ir.sensors.values])
-    expected = np.einsum("hwn,kn->hwk", cacaphony.data, t) * (0.5 / 1.0) * (5.6 / 11.0) ** 2
+    expected = np.einsum("hwn,kn->hwk", cacaphony64.data, t) * (0.5 / 1.0) * (5.6 / 11.0) ** 2
     np.testing.assert_allclose(img.data, expected, rtol=1e-12)
+    # the shipped float32 scene: the same sums to float32 rounding (31 terms, ~1e-6 relative)
+    single = sensor_responses(cam, image_from_scene(cacaphony))
+    assert single.data.dtype == np.float32
+    np.testing.assert_allclose(single.data, expected, rtol=2e-6)
 
 
 def test_quantal_sensor_counts_photons():

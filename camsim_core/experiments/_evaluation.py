@@ -54,7 +54,7 @@ def mean_scielab(xyz, reference, samples_per_degree, white):
     """Mean S-CIELAB dE*ab (CIE 1976) between two XYZ images."""
     from ..metrics import scielab
 
-    return float(np.mean(scielab(xyz, reference, samples_per_degree, white, method="CIE 1976")))
+    return float(np.mean(scielab(xyz, reference, samples_per_degree, white, method="CIE 1976"), dtype=np.float64))
 
 
 @lru_cache(maxsize=8)

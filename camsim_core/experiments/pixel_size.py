@@ -391,7 +391,7 @@ def evaluate(config):
     ref = ideal[lo : lo + cover, lo : lo + cover]
     shown = _to_grid(xyz_cam, config.pitch_um, cover)
     spd = SENSOR_MM[1] * 1e3 / COMPARE_STEP_UM / VIEW_DEG
-    error = float(np.mean(scielab(shown, ref, spd, white, method="CIE 1976")))
+    error = float(np.mean(scielab(shown, ref, spd, white, method="CIE 1976"), dtype=np.float64))
     rec = asdict(config)
     rec.update(noise_seed=config.noise_seed, pixels=int(raw.data.shape[0]), exposure_s=exposure, analog_gain=gain,
                white_electrons=white_e, full_well=cam.full_well, fill_factor=cam.fill_factor,
