@@ -308,7 +308,11 @@ def _filtered_bands(image, spd, *, opponent_in=False, opponent_out=False, to_xyz
     py, px, cy, cx = _plan(spd, (H, W))
     band = min(H, _band_rows(W))
     fy = scipy.fft.next_fast_len(band + 2 * cy, real=True)
-    fx = scipy.fft.next_fast_len(W + 2 * px + 2 * cx, real=True)
+    # columns: the mirrored image after ``a`` zeros, where the kernel reaches past the mirror (small images);
+    # a transform of W + 2 max(px, cx) points holds the valid part unaliased (the mirror is as wide as the
+    # kernel's reach, so the zeros a full linear convolution would add are never reached)
+    a = max(cx - px, 0)
+    fx = scipy.fft.next_fast_len(W + 2 * px + 2 * a, real=True)
     spectra = _band_spectra(spd, cy, cx, fy, fx, dt.type)
     source_row = np.pad(np.arange(H), py, mode="symmetric")  # the image row of each mirrored row
     to_opp, from_opp = XYZ_TO_OPPONENT.astype(dt), OPPONENT_TO_XYZ.astype(dt)  # unused by opponent_in / _out
@@ -335,14 +339,14 @@ def _filtered_bands(image, spd, *, opponent_in=False, opponent_out=False, to_xyz
             rows = map_pixels(to_xyz, rows)  # by chunks: the conversion's temporaries stay a few MiB
         planes[:, : s0 - lo] = 0
         planes[:, s1 - lo :] = 0
-        to_planes(np.ascontiguousarray(rows), to_opp, planes, s0 - lo, cx, px, not opponent_in)
+        to_planes(np.ascontiguousarray(rows), to_opp, planes, s0 - lo, a, px, not opponent_in)
         del rows
         for ch in range(3):
             # one zero-padded FFT product per channel (the numbers of the whole image's transform)
             f = scipy.fft.rfft2(planes[ch], workers=workers)
             f *= spectra[ch]
             full = scipy.fft.irfft2(f, s=(fy, fx), overwrite_x=True, workers=workers)
-            filtered[ch, : i1 - i0] = full[2 * cy : 2 * cy + (i1 - i0), 2 * cx + px : 2 * cx + px + W]
+            filtered[ch, : i1 - i0] = full[2 * cy : 2 * cy + (i1 - i0), a + px + cx : a + px + cx + W]
             del f, full
         from_planes(filtered, i1 - i0, from_opp, back, not opponent_out)
         yield i0, i1, back[: i1 - i0]
