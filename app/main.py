@@ -59,6 +59,14 @@ body.camsim-present .bk-input, body.camsim-present label { font-size: 20px; }
 """
 _PRESENT_JS = "document.body.classList.toggle('camsim-present', cb_obj.active)"
 #: Tab titles that do not fit (presentation mode, a narrow window) go to a second row, not out of sight.
+#: The page's icon, in the page itself: a 2 x 2 Bayer tile (G R / B G). The explorer writes its parameters into
+#: the address on every change, and Chromium fetches a linked icon again after each such change: one HTTP
+#: request to the server per move, handled on the event loop that also serves the results.
+FAVICON = ("data:image/svg+xml,%3Csvg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 2 2'%3E"
+           "%3Crect width='1' height='1' fill='%2300a050'/%3E%3Crect x='1' width='1' height='1' fill='%23d02020'/%3E"
+           "%3Crect y='1' width='1' height='1' fill='%232050d0'/%3E%3Crect x='1' y='1' width='1' height='1' "
+           "fill='%2300a050'/%3E%3C/svg%3E")
+
 _TAB_TITLES_WRAP = ".bk-header { overflow: visible; } .bk-headers-wrapper { flex-wrap: wrap; overflow: visible; }"
 _BIG = ":host { font-size: var(--camsim-text, inherit); } p, span, div, label, td, th, li { font-size: inherit; }"
 
@@ -593,6 +601,7 @@ def create_app(scene=None):
         sidebar=[present, *controls],
         main=[body],
         sidebar_width=330,
+        favicon=FAVICON,
         busy_indicator=None,  # the result panes show their own state; a header spinner would cost two messages per change
     )
     template.state = state  # for tests and notebooks
@@ -614,6 +623,11 @@ def _undelayed(objects):
 class _Template(pn.template.BootstrapTemplate):
     """The page template, put into its document in one batch: Panel adds the page's models and links
     one by one, and Bokeh re-walks the whole model graph after each (18 walks, about 1 s per new page)."""
+
+    @staticmethod
+    def _get_favicon_type(favicon):
+        # Panel knows icons by their file name's ending; the explorer's is a data URI
+        return "image/svg+xml" if favicon == FAVICON else pn.template.BootstrapTemplate._get_favicon_type(favicon)
 
     def server_doc(self, doc=None, title=None, location=True):
         doc = doc if doc is not None else pn.state.curdoc

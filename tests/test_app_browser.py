@@ -75,6 +75,10 @@ def test_page_loads_without_console_errors(page):
     scripts = page.page.evaluate("performance.getEntriesByType('resource').map(r => r.name)")
     assert any("bokeh.min.js" in name for name in scripts)  # the list is the page's resources
     assert not [name for name in scripts if "mathjax" in name.lower()]  # 1.8 MB the page does not need
+    # the icon is in the page: Chromium fetched a linked one again after every change of the address (one
+    # request to the server's event loop per move, made by the browser itself, so not among the page's)
+    icons = page.page.evaluate("[...document.querySelectorAll('link[rel~=icon]')].map(l => l.href)")
+    assert icons and all(href.startswith("data:image/svg+xml,") for href in icons)
 
 
 def test_raising_noise_raises_the_mean_de_shown(page):
