@@ -58,7 +58,6 @@ body.camsim-present { --bokeh-font-size: 20px; --base-font-size: 20px; font-size
 body.camsim-present .bk-input, body.camsim-present label { font-size: 20px; }
 """
 _PRESENT_JS = "document.body.classList.toggle('camsim-present', cb_obj.active)"
-#: Tab titles that do not fit (presentation mode, a narrow window) go to a second row, not out of sight.
 #: The page's icon, in the page itself: a 2 x 2 Bayer tile (G R / B G). The explorer writes its parameters into
 #: the address on every change, and Chromium fetches a linked icon again after each such change: one HTTP
 #: request to the server per move, handled on the event loop that also serves the results.
@@ -67,6 +66,7 @@ FAVICON = ("data:image/svg+xml,%3Csvg xmlns='http://www.w3.org/2000/svg' viewBox
            "%3Crect y='1' width='1' height='1' fill='%232050d0'/%3E%3Crect x='1' y='1' width='1' height='1' "
            "fill='%2300a050'/%3E%3C/svg%3E")
 
+#: Tab titles that do not fit (presentation mode, a narrow window) go to a second row, not out of sight.
 _TAB_TITLES_WRAP = ".bk-header { overflow: visible; } .bk-headers-wrapper { flex-wrap: wrap; overflow: visible; }"
 _BIG = ":host { font-size: var(--camsim-text, inherit); } p, span, div, label, td, th, li { font-size: inherit; }"
 
