@@ -2,8 +2,8 @@
 
 * Load: 10 sessions make 20 noise changes each, in rounds, while an 11th
   runs slow changes (Bayesian demosaicing and S-CIELAB); every session's
-  median response (change typed -> status pane shows it) must stay under
-  1.5 s, each session must see only its own values, and after all close
+  median response (change typed -> status pane shows it, both on the page's
+  own clock) must stay under 1.5 s, each session must see only its own values, and after all close
   and the idle timeout passes the server's memory must come back within
   100 MB of its level after one warm-up session (shipped data read once
   per process are not session memory; the level at start is printed too).
@@ -34,6 +34,46 @@ pytestmark = [
 ]
 
 IDLE_S = 2.0
+
+#: In a page: note the page's clock and the noise shown each time its status pane shows a computed result
+#: (``window.camsimShown``). Event-driven (no polling), so the eleven pages cost the machine nothing more.
+_NOTE_RESULTS = """() => {
+  function deep(sel, root) {
+    root = root || document;
+    const hit = root.querySelector(sel);
+    if (hit) return hit;
+    for (const el of root.querySelectorAll('*')) {
+      if (el.shadowRoot) { const f = deep(sel, el.shadowRoot); if (f) return f; }
+    }
+    return null;
+  }
+  const host = deep('.camsim-status');
+  const root = host.shadowRoot || host;
+  window.camsimShown = [];
+  new MutationObserver(() => {
+    const pre = root.querySelector('pre');
+    try {
+      const s = JSON.parse(pre.textContent);
+      if (s.params && !s.computing) window.camsimShown.push([performance.now(), s.params.noise_sigma]);
+    } catch (e) {}
+  }).observe(root, {childList: true, characterData: true, subtree: true});
+  return true;
+}"""
+
+
+def _type_noise(pg, value):
+    """Type ``value`` into the noise box; returns the page's clock (ms) just before the Enter that sends it."""
+    box = pg.page.locator(".w-noise input").first
+    box.fill(str(value))
+    sent = pg.page.evaluate("performance.now()")
+    box.press("Enter")
+    return sent
+
+
+def _shown_after(pg, value, sent):
+    """ms on the page's clock from ``sent`` to its status pane first showing the result for ``value``."""
+    shown = pg.page.evaluate("window.camsimShown.splice(0)")
+    return min(t for t, v in shown if v is not None and abs(v - value) < 1e-9 and t >= sent) - sent
 
 
 @pytest.fixture(scope="module")
@@ -83,7 +123,10 @@ def test_ten_sessions_stay_responsive_and_are_freed(browser, server):
     baseline = _rss_mb(ps)
     slow = Page(browser, server["url"])
     pages = [Page(browser, server["url"]) for _ in range(10)]
+    for pg in pages:
+        pg.page.evaluate(_NOTE_RESULTS)
     times = [[] for _ in pages]
+    on_page = [[] for _ in pages]
     slow_methods = [("w-demosaic", "bayesian")]
     for round_ in range(20):
         if round_ % 5 == 0:  # the slow session starts a heavy change every few rounds
@@ -93,14 +136,20 @@ def test_ten_sessions_stay_responsive_and_are_freed(browser, server):
         sent = []
         for j, pg in enumerate(pages):
             value = round(0.5 * j + 0.1 * (round_ + 1), 2)
-            pg.type_number("w-noise", value)
-            sent.append((time.monotonic(), value))
+            t_page = _type_noise(pg, value)
+            sent.append((time.monotonic(), value, t_page))
         for j, pg in enumerate(pages):
-            t0, value = sent[j]
+            t0, value, t_page = sent[j]
             pg.wait_for(lambda s, v=value: s["params"]["noise_sigma"] == v)
             times[j].append(time.monotonic() - t0)
-    medians = [statistics.median(t) for t in times]
-    print(f"\nload: medians per session (s): {[round(m, 2) for m in medians]}; worst single {max(max(t) for t in times):.2f}")
+            on_page[j].append(_shown_after(pg, value, t_page) / 1000)
+    # the response each student sees: from their Enter to their result, on their page's clock. (The driver's
+    # clock adds, for the first page, the time it takes the driver to type into the nine others and poll.)
+    medians = [statistics.median(t) for t in on_page]
+    print(f"\nload: medians per session (s), on each page's clock: {[round(m, 2) for m in medians]}; "
+          f"worst single {max(max(t) for t in on_page):.2f}")
+    print(f"load: the same as the test driver sees them: {[round(statistics.median(t), 2) for t in times]}; "
+          f"worst single {max(max(t) for t in times):.2f}")
     # no cross-session leak: each page still shows its own last value
     for j, pg in enumerate(pages):
         assert pg.params()["noise_sigma"] == round(0.5 * j + 0.1 * 20, 2)
