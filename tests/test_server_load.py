@@ -5,8 +5,8 @@
   median response (change typed -> status pane shows it, both on the page's
   own clock) must stay under 1.5 s, each session must see only its own values, and after all close
   and the idle timeout passes the server's memory must come back within
-  100 MB of its level after one warm-up session (shipped data read once
-  per process are not session memory; the level at start is printed too).
+  100 MB of its level at start, and of its level after one warm-up session
+  (shipped data read once per process are not session memory).
 * Soak: 200 changes in one session; resident memory may grow by less than
   50 MB after the first 20.
 
