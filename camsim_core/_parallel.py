@@ -23,26 +23,30 @@ CORES = max(1, os.cpu_count() or 1)
 #: Work (values written) below which a call runs in the calling thread.
 PARALLEL_VALUES = 1 << 21
 
-_pool = None
-_lock = threading.Lock()
+class ThreadPool:
+    """A pool of :data:`CORES` threads, made on first use and made again in a forked child.
+
+    A forked child (a script's ``multiprocessing`` pool; fork is Linux's default) inherits the pool
+    object but none of its threads: that pool would take work and never do it.
+    """
+
+    def __init__(self, thread_name_prefix):
+        self._prefix = thread_name_prefix
+        self._forget()
+        os.register_at_fork(after_in_child=self._forget)
+
+    def _forget(self):
+        self._pool, self._lock = None, threading.Lock()
+
+    def executor(self):
+        """The pool's executor (``concurrent.futures.ThreadPoolExecutor``)."""
+        with self._lock:
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(CORES, thread_name_prefix=self._prefix)
+            return self._pool
 
 
-def _executor():
-    global _pool
-    with _lock:
-        if _pool is None:
-            _pool = ThreadPoolExecutor(CORES, thread_name_prefix="camsim-block")
-        return _pool
-
-
-def _forget_pool():
-    """In a forked child: the parent's pool threads do not exist there, so the child starts its own pool
-    (a pool object inherited with dead threads would take work and never do it)."""
-    global _pool, _lock
-    _pool, _lock = None, threading.Lock()
-
-
-os.register_at_fork(after_in_child=_forget_pool)
+_blocks = ThreadPool("camsim-block")
 
 
 def run_blocks(fn, bounds, *, values):
@@ -57,7 +61,7 @@ def run_blocks(fn, bounds, *, values):
         for a, b in pairs:
             fn(a, b)
         return
-    futures = [_executor().submit(fn, a, b) for a, b in pairs]
+    futures = [_blocks.executor().submit(fn, a, b) for a, b in pairs]
     wait(futures)
     for f in futures:
         f.result()

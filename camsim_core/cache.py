@@ -43,16 +43,14 @@ import contextlib
 import dataclasses
 import hashlib
 import itertools
-import os
-import threading
 import time
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ._chunks import map_pixels
-from ._parallel import CORES
+from ._parallel import CORES, ThreadPool
 from .datasets.sensors import Sensors
 from .errors import CamsimError
 from .image import image_from_scene
@@ -413,17 +411,8 @@ def _step_order(name, camera):
     return len(stages) + (PROCESSING_STEPS.index(name) if name in PROCESSING_STEPS else len(PROCESSING_STEPS))
 
 
-_branch_pool = None
-_branch_lock = threading.Lock()
-
-
-def _forget_branch_pool():
-    """In a forked child (a script's ``multiprocessing`` pool): start a new pool, as :mod:`._parallel` does."""
-    global _branch_pool, _branch_lock
-    _branch_pool, _branch_lock = None, threading.Lock()
-
-
-os.register_at_fork(after_in_child=_forget_branch_pool)
+#: The ideal side's threads (:func:`_start`).
+_branches = ThreadPool("camsim-ideal")
 
 
 def _start(fn, *, parallel):
@@ -435,12 +424,8 @@ def _start(fn, *, parallel):
     to be split). The pool is not the block pool of :mod:`._parallel` (whose tasks never wait on it), so a
     branch that splits its own work into blocks cannot deadlock.
     """
-    global _branch_pool
     if parallel and CORES > 1:
-        with _branch_lock:
-            if _branch_pool is None:
-                _branch_pool = ThreadPoolExecutor(CORES, thread_name_prefix="camsim-ideal")
-        return _branch_pool.submit(fn)
+        return _branches.executor().submit(fn)
     done = Future()
     try:
         done.set_result(fn())
