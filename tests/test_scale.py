@@ -179,6 +179,7 @@ def _bilinear_reference(data, tile, k):
     np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])[:, :, None],
     np.array([[0, 1], [2, 3]])[:, :, None],
     np.array([[0, 1, 1, 2, 0]])[:, :, None],
+    (np.arange(16).reshape(4, 4) % 4)[:, :, None],  # period 4: the separable passes, not the stencils
     np.stack([BAYER["GRBG"], BAYER["GRBG"][::-1]], axis=2),  # tiered: two samples at a pixel
 ])
 @pytest.mark.parametrize("shape", [(31, 45), (5, 7), (2, 3)])
