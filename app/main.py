@@ -15,6 +15,7 @@ in tabs (``TABS``: one line per tab).
 from __future__ import annotations
 
 import io
+import json
 import logging
 import weakref
 from functools import partial
@@ -559,7 +560,7 @@ def create_app(scene=None):
                              f"{state_module.LIMITS.max_text} characters and were ignored")
         else:
             _offer_linked_chart(state, pn.state.location.search)
-            pn.state.location.sync(state, {p: p for p in URL_PARAMETERS + COMPARE_PARAMETERS}, on_error=on_error)
+            _sync_address(state, URL_PARAMETERS + COMPARE_PARAMETERS, on_error)
     views = {"state": state}
     views["results"] = results = ResultsView(state)
     alert = pn.pane.Alert(state.message, alert_type="danger", visible=bool(state.message),
@@ -635,6 +636,71 @@ class _Template(pn.template.BootstrapTemplate):
             return super().server_doc(doc, title, location)
         with doc.models.freeze():
             return super().server_doc(doc, title, location)
+
+
+#: The address follows a change this long after it (ms), once its result is shown.
+ADDRESS_DELAY_MS = 300
+
+
+def _sync_address(state, names, on_error):
+    """The page's address holds the parameters ``names``, so that a link reproduces the page.
+
+    Panel's ``Location.sync`` reads them from the address at start (and on the
+    browser's back and forward), and writes every change into the address at
+    once. Here the writing waits until the change's result is shown and
+    ``ADDRESS_DELAY_MS`` have passed, and a burst of changes is written once:
+    each new address is a history entry and navigation bookkeeping in the
+    browser (~20 ms of its CPU a change, measured with Chromium), which came
+    while the browser drew the new result.
+    """
+    location = pn.state.location
+    location.sync(state, {p: p for p in names}, on_error=on_error)
+    entry = next((e for e in getattr(location, "_synced", ()) if e[0] is state), None)
+    if entry is None or not callable(getattr(location, "_update_query", None)):  # another Panel: its own writing
+        return
+    state.param.unwatch(entry[2])
+    pending, armed = set(), [0]
+
+    def write(generation):
+        if generation != armed[0]:  # a later change re-armed the timer
+            return
+        if state.computing:
+            arm()
+            return
+        query = {}
+        for name in sorted(pending):
+            value = getattr(state, name)
+            if value is None:
+                continue
+            try:
+                value = state.param[name].serialize(value)
+            except Exception:
+                pass
+            query[name] = value if isinstance(value, str) else json.dumps(value)
+        pending.clear()
+        location._update_query(query=query)  # Panel's writer: marks the address as written by the page
+
+    def arm():
+        armed[0] += 1
+        _later_ms(ADDRESS_DELAY_MS, once(write, armed[0]))
+
+    def on_change(*events):
+        pending.update(e.name for e in events)
+        arm()
+
+    state.param.watch(on_change, list(names))
+
+
+def _later_ms(ms, fn):
+    """``fn()`` after ``ms`` on this session's event loop, once its page is ready; at once outside a server."""
+    doc = pn.state.curdoc
+    if doc is None or doc.session_context is None:
+        fn()
+        return
+    try:
+        doc.add_timeout_callback(partial(when_page_ready, fn), ms)
+    except Exception:  # the session has closed
+        fn.drop()
 
 
 def _offer_linked_chart(state, search):
