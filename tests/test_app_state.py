@@ -324,6 +324,20 @@ def test_raw_and_demosaiced_views_are_display_encoded_so_a_fifth_of_full_scale_i
     assert planes_rgb(state.result.demosaiced).max() <= 1.0
 
 
+def test_raw_view_by_table_is_the_per_pixel_colouring(state):
+    """The raw view's table (every sensor's every digital value) gives the per-pixel arithmetic's bytes."""
+    from app.views import raw_rgb, raw_rgba
+
+    raw = state.result.raw
+    assert raw.bits == 8 and np.array_equal(raw.data, np.rint(raw.data))  # the table's case
+    np.testing.assert_array_equal(raw_rgba(raw), rgba32(raw_rgb(raw)))
+    ten = raw.replace(data=np.random.default_rng(4).integers(0, 1024, raw.data.shape).astype(np.float32),
+                      bits=10)
+    np.testing.assert_array_equal(raw_rgba(ten), rgba32(raw_rgb(ten)))
+    between = raw.replace(data=raw.data + np.float32(0.25))  # not whole values: the arithmetic itself
+    np.testing.assert_array_equal(raw_rgba(between), rgba32(raw_rgb(between)))
+
+
 def test_auto_exposure_says_what_it_aims_at(state):
     state.auto_expose()
     assert "90 % of full scale" in state.notice and "brightest 0.5 %" in state.notice
