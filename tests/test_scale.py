@@ -356,6 +356,31 @@ def test_freeman_median_equals_scipy(shape, size, dtype):
     np.testing.assert_array_equal(median_filter(x, size), ndimage.median_filter(x, size=size, mode="mirror"))
 
 
+@pytest.mark.parametrize("tile", [
+    BAYER["GRBG"][:, :, None],
+    np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])[:, :, None],
+    (np.arange(16).reshape(4, 4) % 4)[:, :, None],
+    np.stack([BAYER["RGGB"], BAYER["RGGB"][::-1]], axis=2),  # tiered
+])
+@pytest.mark.parametrize("shape, size", [((41, 57), 5), ((9, 14), 3), ((30, 23), 7), ((700, 9), 5)])
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_freeman_by_bands_equals_whole_planes(tile, shape, size, dtype):
+    """Freeman's banded path (difference, median, sum and samples band by band) gives the numbers of
+    the same steps on whole planes (scipy's median), bit for bit."""
+    from camsim_core.demosaicing.freeman import _by_planes, demosaic_freeman, reference_class
+
+    k = int(tile.max()) + 1
+    data = np.random.default_rng(11).uniform(0, 255, shape + (tile.shape[2],)).astype(dtype)
+    data[::4] = np.round(data[::4], -1)  # ties in the medians
+    raw = cs.raw_from_array(data if tile.shape[2] > 1 else data[:, :, 0], tile if tile.shape[2] > 1 else tile[:, :, 0])
+    raw = raw.replace(data=np.asarray(raw.data).astype(dtype))
+    est = bilinear_planes(data, tile, k)
+    expected = _by_planes(est, tile, k, reference_class(tile, k), size)
+    out = demosaic_freeman(raw, size)
+    assert out.dtype == dtype
+    np.testing.assert_array_equal(out, expected)
+
+
 def test_to_screen_block_means():
     from camsim_core.screen import to_screen
 
