@@ -255,7 +255,8 @@ def raw_rgba(image):
     data = np.asarray(image.data)
     levels = 1 << int(image.bits or 0) if image.bits and 0 < int(image.bits) <= 16 else 0
     if levels and image.mosaiced and data.ndim == 2 and image.full_scale and image.tile is not None:
-        q = data.astype(np.int32)
+        with np.errstate(invalid="ignore"):  # NaN or a value beyond int32: fails the test below
+            q = data.astype(np.int32)
         if data.size and q.min() >= 0 and q.max() < levels and np.array_equal(q, data):
             colors = sensor_colors(image.sensitivities, image.wavelengths, image.sensor_names).astype(np.float32)
             table = _raw_table(colors.tobytes(), colors.shape[0], float(image.full_scale), levels)
