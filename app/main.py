@@ -34,7 +34,7 @@ from .physical import SensorControls
 from .quality import QualityView
 from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, ExplorerState, Runner
 from .upload import BoundedUpload
-from .views import CameraView, ResultsView, SceneView, Text, once, when_page_ready
+from .views import CameraView, ResultsView, SceneView, Text, _after, once, when_page_ready
 
 __all__ = ["create_app", "DEFAULT_SCENE", "configure", "LIVE_STATES", "TABS"]
 
@@ -682,25 +682,13 @@ def _sync_address(state, names, on_error):
 
     def arm():
         armed[0] += 1
-        _later_ms(ADDRESS_DELAY_MS, once(write, armed[0]))
+        _after(ADDRESS_DELAY_MS, once(write, armed[0]))
 
     def on_change(*events):
         pending.update(e.name for e in events)
         arm()
 
     state.param.watch(on_change, list(names))
-
-
-def _later_ms(ms, fn):
-    """``fn()`` after ``ms`` on this session's event loop, once its page is ready; at once outside a server."""
-    doc = pn.state.curdoc
-    if doc is None or doc.session_context is None:
-        fn()
-        return
-    try:
-        doc.add_timeout_callback(partial(when_page_ready, fn), ms)
-    except Exception:  # the session has closed
-        fn.drop()
 
 
 def _offer_linked_chart(state, search):
