@@ -16,7 +16,9 @@ the pipeline's run) and the ratio of the median to the goal.
 
 Actions: noise, exposure, rendering method, demosaicing method, distance,
 scene change, first complete render after navigation (page load to stats and
-images shown).
+images shown; each in a new browser context, so nothing is cached): pages opened
+``FIRST_PAUSE_S`` apart, and pages opened back to back (the server then may not
+have the next page built in advance; the table counts the pages that were).
 
 Usage: ``python benchmarks/browser.py [--repeats N] [--url URL]`` (``--url``
 measures an already running server instead of starting one).
@@ -40,7 +42,7 @@ from app_helpers import CHROMIUM_ARGS, chromium_path, explorer_server  # noqa: E
 
 #: Goals (median ms) per action.
 GOALS = {"noise": 150, "exposure": 150, "render method": 150, "demosaic method": 150, "distance": 300,
-         "scene change": None, "first render": 1500}
+         "scene change": None, "first render": 1500, "first, back to back": None}
 
 # JS: find an element through shadow roots (Panel renders panes inside them).
 _DEEP = """
@@ -139,16 +141,26 @@ def time_action(page, key, css, kind, value):
 
 
 def time_first_render(browser, url):
+    """ms from navigation start to the first result shown, the engine ms, and how the server made the page's
+    session (its ``Server-Timing`` header: a spare built in advance, or built for this request)."""
     page = browser.new_page(viewport={"width": 1366, "height": 768})
     page.set_default_timeout(180000)  # a loaded machine can take long; the table says how long
     try:
         page.add_init_script(_FIRST_INIT)
-        page.goto(url)
+        response = page.goto(url)
         done = page.evaluate("window.camsimFirst")
+        timing = (response.headers.get("server-timing", "") if response is not None else "")
+        how = "spare" if 'desc="spare"' in timing else "built"
         # performance.now() counts from navigation start: the page's own clock
-        return done["t"], done["engine"]
+        return done["t"], done["engine"], how
     finally:
         page.close()
+
+
+#: Seconds between first renders in the "first render" row: a visitor arriving at a server not busy with
+#: another page (it has built the next page in advance by then). "back to back" opens pages one after
+#: another, as a class opening the explorer at once.
+FIRST_PAUSE_S = 3.0
 
 
 def run(url, repeats):
@@ -157,8 +169,12 @@ def run(url, repeats):
     rows = []
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=chromium_path(), args=CHROMIUM_ARGS)
-        # first render: a fresh page each time
-        firsts = [time_first_render(browser, url) for _ in range(repeats)]
+        # first render: a fresh page (and browser context, so nothing cached) each time
+        firsts = []
+        for _ in range(repeats):
+            time.sleep(FIRST_PAUSE_S)
+            firsts.append(time_first_render(browser, url))
+        back_to_back = [time_first_render(browser, url) for _ in range(repeats)]
         page = browser.new_page(viewport={"width": 1366, "height": 768})
         page.set_default_timeout(180000)
         page.add_init_script(_FIRST_INIT)
@@ -176,7 +192,9 @@ def run(url, repeats):
             rows.append((label, times, engines))
         page.close()
         browser.close()
-    rows.append(("first render", [f[0] for f in firsts], [f[1] or 0.0 for f in firsts]))
+    for label, runs in (("first render", firsts), ("first, back to back", back_to_back)):
+        spares = sum(f[2] == "spare" for f in runs)
+        rows.append((label, [f[0] for f in runs], [f[1] or 0.0 for f in runs], f"{spares}/{len(runs)}"))
     return rows
 
 
@@ -184,13 +202,17 @@ def report(rows, repeats):
     load = os.getloadavg()
     print(f"explorer in Chromium at 1366 x 768, default scene; {repeats} repetitions per action; "
           f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} cores")
-    print(f"{'action':<16} {'median ms':>9} {'max ms':>8} {'engine ms':>9} {'goal ms':>8} {'median/goal':>11}")
-    print("-" * 66)
-    for label, times, engines in rows:
+    print(f"{'action':<20} {'median ms':>9} {'max ms':>8} {'engine ms':>9} {'goal ms':>8} {'median/goal':>11} "
+          f"{'spare pages':>11}")
+    print("-" * 82)
+    for label, times, engines, *spares in rows:
         med, mx = statistics.median(times), max(times)
         goal = GOALS.get(label)
         ratio = f"{med / goal:.2f}" if goal else "-"
-        print(f"{label:<16} {med:9.0f} {mx:8.0f} {statistics.median(engines):9.1f} {goal or '-':>8} {ratio:>11}")
+        print(f"{label:<20} {med:9.0f} {mx:8.0f} {statistics.median(engines):9.1f} {goal or '-':>8} {ratio:>11} "
+              f"{spares[0] if spares else '-':>11}")
+    print(f"first render: pages opened {FIRST_PAUSE_S:.0f} s apart; back to back: one after another. "
+          "spare pages: how many were served from a page the server built in advance (Server-Timing header).")
 
 
 def main():

@@ -95,9 +95,14 @@ class Page:
         self.page.set_default_timeout(TIMEOUT * 1000)
         self.page.on("console", lambda m: self.console.append((m.type, f"{m.text} ({m.location.get('url', '')})")))
         self.page.on("pageerror", lambda e: self.console.append(("pageerror", str(e))))
-        self.page.goto(url)
+        self.response = self.page.goto(url)
         self.page.locator(".camsim-status pre").first.wait_for(state="attached", timeout=TIMEOUT * 1000)
         self.wait_for(lambda s: s.get("mean_de") is not None)
+
+    def session_made(self):
+        """How the server made this page's session: "spare" (built in advance) or "built" (for the request)."""
+        timing = self.response.headers.get("server-timing", "") if self.response is not None else ""
+        return "spare" if 'desc="spare"' in timing else "built"
 
     def status(self):
         text = self.page.locator(".camsim-status pre").first.text_content()
@@ -150,6 +155,26 @@ class Page:
 
     def close(self):
         self.page.close()
+
+
+def server_log(url):
+    """The text ``camsim serve`` (from :func:`explorer_server`) has logged so far."""
+    from urllib.parse import urlparse
+
+    path = ARTIFACTS / f"server-{urlparse(url).port}.log"
+    return path.read_text(errors="replace") if path.exists() else ""
+
+
+def wait_for_log(url, text, count=1, timeout=TIMEOUT):
+    """Wait until the server's log holds ``text`` at least ``count`` times; return how many times it does."""
+    deadline = time.monotonic() + timeout
+    while True:
+        n = server_log(url).count(text)
+        if n >= count:
+            return n
+        if time.monotonic() > deadline:
+            raise AssertionError(f"the server logged {text!r} {n} times in {timeout:.0f} s, expected {count}")
+        time.sleep(0.2)
 
 
 def background_share(png_bytes, background=(255, 255, 255), tol=8):

@@ -10,7 +10,7 @@ import pytest
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
 from app_helpers import (ARTIFACTS, CHROMIUM_ARGS, FIGURES_JS, IMAGE_VIEWS, Page, background_share, chromium_path,
-                         explorer_server, figures, loading_count, shows_whole_image)
+                         explorer_server, figures, loading_count, server_log, shows_whole_image, wait_for_log)
 
 pytestmark = pytest.mark.browser
 
@@ -79,6 +79,53 @@ def test_page_loads_without_console_errors(page):
     # request to the server's event loop per move, made by the browser itself, so not among the page's)
     icons = page.page.evaluate("[...document.querySelectorAll('link[rel~=icon]')].map(l => l.href)")
     assert icons and all(href.startswith("data:image/svg+xml,") for href in icons)
+
+
+SPARE_BUILT = "a spare page for / built"
+
+
+def _png(data):
+    from io import BytesIO
+
+    from PIL import Image
+
+    return np.asarray(Image.open(BytesIO(data)).convert("RGB"), dtype=float)
+
+
+def test_a_page_built_in_advance_is_the_page_a_request_builds(browser, server):
+    """The plain address gets a session the server built while idle; a link with parameters gets one built for
+    it. Both show the same result, pixel for pixel; the prepared one loads its styles from this server, answers
+    changes, and the server prepares the next one once the page has connected."""
+    built_before = wait_for_log(server, SPARE_BUILT)
+    spare = Page(browser, server)
+    try:
+        assert spare.session_made() == "spare"
+        assert spare.errors() == []  # a stylesheet from elsewhere would be a failed load here
+        names = spare.page.evaluate("performance.getEntriesByType('resource').map(r => r.name)")
+        foreign = [n for n in names if not n.startswith(server.rstrip("/")) and not n.startswith("data:")]
+        assert foreign == []
+        linked = Page(browser, server + "?scene=cacaphony290")  # the default scene, named in the link
+        try:
+            assert linked.session_made() == "built"
+            assert linked.status()["params"] == spare.status()["params"]
+            assert linked.status()["mean_de"] == spare.status()["mean_de"]
+            spare.page.wait_for_timeout(300)
+            linked.page.wait_for_timeout(300)
+            for key in ("raw", "rendered", "de"):
+                a = _png(spare.page.locator(f".camsim-{key}-plot").first.screenshot(
+                    path=str(ARTIFACTS / f"spare-page-{key}.png")))
+                b = _png(linked.page.locator(f".camsim-{key}-plot").first.screenshot())
+                assert a.shape == b.shape and np.abs(a - b).mean() < 0.5, key
+        finally:
+            linked.close()
+        before = spare.status()["mean_de"]
+        spare.type_number("w-noise", 6)
+        s = spare.wait_for(lambda s: s["params"]["noise_sigma"] == 6 and not s.get("computing"))
+        assert s["mean_de"] > before
+        wait_for_log(server, SPARE_BUILT, built_before + 1)  # the next visitor's page
+    finally:
+        spare.close()
+    assert "Traceback" not in server_log(server)
 
 
 def test_raising_noise_raises_the_mean_de_shown(page):

@@ -137,3 +137,28 @@ def test_startup_objects_are_frozen_after_garbage_is_collected():
     finally:
         gc.unfreeze()
         gc.enable()
+
+
+def test_a_write_to_a_closed_page_is_one_log_line_and_other_errors_reach_asyncio(caplog):
+    from tornado.iostream import StreamClosedError
+    from tornado.websocket import WebSocketClosedError
+
+    from camsim_core.cli.serve import closed_page_exception_handler
+
+    class Loop:
+        def __init__(self):
+            self.passed_on = []
+
+        def default_exception_handler(self, context):
+            self.passed_on.append(context)
+
+    loop = Loop()
+    with caplog.at_level("INFO", logger="camsim.explorer"):
+        for exc in (WebSocketClosedError(), StreamClosedError()):
+            closed_page_exception_handler(loop, {"message": "Task exception was never retrieved", "exception": exc})
+    assert loop.passed_on == []
+    assert caplog.text.count("a message to a closed page was dropped") == 2
+    other = {"message": "Task exception was never retrieved", "exception": ValueError("a real bug")}
+    closed_page_exception_handler(loop, other)
+    closed_page_exception_handler(loop, {"message": "no exception at all"})
+    assert loop.passed_on == [other, {"message": "no exception at all"}]

@@ -55,6 +55,10 @@ def register(subparsers):
                    metavar="HOST[:PORT]", help="extra host:port allowed to open the websocket (repeatable)")
     p.add_argument("--show", action="store_true", help="open a browser tab")
     p.add_argument("--no-upload", action="store_true", help="offer no scene upload (for public demos)")
+    p.add_argument("--no-spare-page", action="store_true",
+                   help="build each page when it is asked for (by default the next page is built while the "
+                        "server is idle, so that opening the explorer does not wait for it; it costs one "
+                        "session's memory)")
     g = p.add_argument_group("limits")
     g.add_argument("--max-upload-mb", type=_positive_float, default=up.max_upload_bytes / 2**20,
                    help=f"largest uploaded file, MiB (default {up.max_upload_bytes / 2**20:g})")
@@ -212,6 +216,46 @@ def _collect_and_trim_once_quiet(libc, quiet_s=None):
     return schedule
 
 
+def _log_to_stderr():
+    """The server's own notes (``camsim.*`` loggers at INFO: spare pages built, memory returned after closed
+    sessions, stranded changes re-sent) on stderr, one line each; without a handler Python drops them."""
+    logger = logging.getLogger("camsim")
+    if not any(getattr(h, "camsim", False) for h in logger.handlers):
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("%(asctime)s %(name)s: %(message)s", "%H:%M:%S"))
+        handler.camsim = True
+        logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+
+
+def closed_page_exception_handler(loop, context):
+    """asyncio's handler for exceptions nobody retrieved, in ``camsim serve``.
+
+    A message written to a page's websocket after the page closed raises in a
+    task nobody awaits; asyncio's default handler then prints "Task exception
+    was never retrieved" and a traceback for what is a tab closing mid-update.
+    Those are logged as one line; every other exception goes to the default
+    handler.
+    """
+    from tornado.iostream import StreamClosedError
+    from tornado.websocket import WebSocketClosedError
+
+    if isinstance(context.get("exception"), (WebSocketClosedError, StreamClosedError)):
+        logging.getLogger("camsim.explorer").info("a message to a closed page was dropped")
+        return
+    loop.default_exception_handler(context)
+
+
+def _quiet_closed_page_writes():
+    """Install :func:`closed_page_exception_handler` on the server's event loop once it runs."""
+    import asyncio
+
+    from tornado.ioloop import IOLoop
+
+    IOLoop.current().add_callback(lambda: asyncio.get_running_loop().set_exception_handler(
+        closed_page_exception_handler))
+
+
 def run(args):
     from .. import load_scene
 
@@ -225,6 +269,8 @@ def run(args):
     if args.scene:
         scene = load_scene(args.scene)  # validate now: a clear error, not a broken page
         scene = args.scene if str(args.scene).lower() == scene.name else scene
+    _log_to_stderr()
+    _quiet_closed_page_writes()
     libc = _return_freed_memory_to_the_system()
     main = _import_app()
     import panel as pn
@@ -239,6 +285,11 @@ def run(args):
     idle_ms = int(args.session_idle * 1000)
     main.warm_up()
     _freeze_startup_objects()
+    if not args.no_spare_page:
+        from app import _spare_session
+
+        if _spare_session.install():
+            _spare_session.prepare_at_start(f"{public_host(args.address)}:{args.port}")
     print(f"camsim explorer on http://{public_host(args.address)}:{args.port}/ (Ctrl-C to stop)", flush=True)
     pn.serve(main.create_app, port=args.port, address=args.address, show=args.show,
              websocket_origin=origins, title="camsim explorer", verbose=False,

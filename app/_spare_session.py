@@ -1,0 +1,296 @@
+"""The next visitor's page, built while the server is idle.
+
+A browser asking for the explorer waits for its whole session to be built
+before it gets the page's HTML: the explorer's state and views, then the
+Bokeh models Panel makes of them (about 0.7 s of the server's event loop,
+measured with cProfile: ``create_app`` 0.27 s, Panel's models 0.35-0.40 s).
+Only then does it fetch the scripts (0.5-0.8 s), open the websocket and
+pull the document, which the server serializes then (0.15-0.25 s with the
+first result's images). Here the server keeps one session per page path
+built in advance (a *spare*), its document serialized once its first result
+is in: a request for the plain page (no query arguments) takes it, with a
+fresh token made from that request, and its pull gets the serialized
+document unless the document changed since. The next spare is built when
+every page served has connected (a build holds the event loop ~0.7 s, which
+would hold back a loading page's scripts and pull) and no session is
+computing; pages asked for back to back are built as before.
+
+A request with arguments (a shared link, a saved design) builds its own
+session as before: its parameters are read while the session is built.
+
+Written by hand: neither Bokeh nor Panel builds sessions ahead of requests.
+Panel's ``reuse_sessions`` sends every visitor the HTML of the first session
+built, whose root ids are not those of the visitor's own document; the
+Bootstrap template then loses its styles (seen in screenshots).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+import weakref
+
+__all__ = ["install", "prepare_at_start", "SPARE_DELAY_S"]
+
+#: Seconds after the last page served has connected (its scripts loaded, its document pulled) before a spare
+#: is built: the page's first layout sends the server its sizes meanwhile.
+SPARE_DELAY_S = 1.0
+#: The longest wait for a served page to connect before a spare is built anyway (s).
+CONNECT_WAIT_S = 10.0
+#: How often the builder checks whether the server is idle (s).
+POLL_S = 0.25
+
+_log = logging.getLogger("camsim.explorer")
+_installed = []
+# path -> ServerSession ready to be handed out; path -> (application context, Bokeh's tornado app, request)
+_spares: dict = {}
+_sources: dict = {}
+_scheduled: set = set()
+_in_flight = weakref.WeakKeyDictionary()  # session served -> [served at, connected at] (monotonic s)
+
+
+def _busy():
+    """A session computing a result: a build now would hold its result back on the event loop."""
+    from . import main
+
+    return any(getattr(s, "computing", False) for s in list(main.LIVE_STATES))
+
+
+def _plain_request(request):
+    """The request a spare is built for: the path and host of ``request``, no arguments, headers or cookies
+    (a spare is handed to another visitor; the browser sends its own address once the page connects)."""
+    from tornado.httputil import HTTPHeaders, HTTPServerRequest, RequestStartLine
+
+    host = request.host or "127.0.0.1"
+    plain = HTTPServerRequest(headers=HTTPHeaders({"Host": host}),
+                              start_line=RequestStartLine("GET", request.path, "HTTP/1.1"))
+    plain.protocol = getattr(request, "protocol", "http")
+    return plain
+
+
+def _token(tornado_app, session_id, payload):
+    from bokeh.util.token import generate_jwt_token
+
+    return generate_jwt_token(session_id, secret_key=tornado_app.secret_key, signed=tornado_app.sign_sessions,
+                              expiration=tornado_app.session_token_expiration, extra_payload=payload)
+
+
+async def _build(path):
+    from bokeh.util.token import generate_session_id
+
+    context, tornado_app, request = _sources[path]
+    session_id = generate_session_id(secret_key=tornado_app.secret_key, signed=tornado_app.sign_sessions)
+    token = _token(tornado_app, session_id, {"headers": {}, "cookies": {}, "arguments": {}})
+    from . import main
+
+    t0 = time.perf_counter()
+    before = set(main.LIVE_STATES)
+    session = await context.create_session_if_needed(session_id, request, token)
+    session.block_expiration()  # not reaped as an unused session while it waits
+    _spares[path] = session
+    _log.info("a spare page for %s built in %.0f ms", path, 1000 * (time.perf_counter() - t0))
+    new = [s for s in list(main.LIVE_STATES) if s not in before]
+    if len(new) == 1:
+        _serialize_when_settled(path, session, new[0])
+
+
+def _serialize_when_settled(path, session, state):
+    """Once the spare's first result is in its document: give its stylesheets the addresses Panel gives them
+    when it writes the page, and serialize it for its first pull."""
+    from tornado.ioloop import IOLoop
+
+    def check():
+        if _spares.get(path) is not session:
+            return  # handed out before it settled: its pull serializes as usual
+        if state.computing:
+            IOLoop.current().call_later(POLL_S, check)
+            return
+        _page_stylesheets(session.document)
+        _serialize_for_pull(session)
+
+    IOLoop.current().call_later(POLL_S, check)
+
+
+def _page_stylesheets(doc):
+    """What Panel does to the document's stylesheets when it writes a page (``server_html_page_for_session``):
+    the package's CSS from this server, not from the CDN. Done for a spare before its serialization; Panel
+    doing it again at hand-out changes nothing, and a stylesheet it does change makes the pull serialize anew."""
+    from panel.io.resources import CDN_DIST, LOCAL_DIST, patch_model_css, use_cdn
+    from panel.io.state import set_curdoc, state
+
+    with set_curdoc(doc):
+        dist_url = CDN_DIST if use_cdn() else (f"{state.rel_path}/{LOCAL_DIST}" if state.rel_path else LOCAL_DIST)
+        for root in doc.roots:
+            patch_model_css(root, dist_url=dist_url)
+
+
+def _stylesheet_urls(doc):
+    from bokeh.models import ImportedStyleSheet
+
+    return {m.id: m.url for m in list(doc.models) if isinstance(m, ImportedStyleSheet)}
+
+
+class _AsSerialized:
+    """Stands for a document in Bokeh's ``PULL-DOC-REPLY`` message: its serialization made earlier."""
+
+    def __init__(self, serialized):
+        self._serialized = serialized
+
+    def to_json(self):
+        return self._serialized
+
+
+def _serialize_for_pull(session):
+    """Serialize the session's document now; its first pull replies with that if the document has not
+    changed since (and is not holding back changes), else Bokeh serializes it anew."""
+    if session.destroyed or session.connection_count > 0:
+        return
+    doc = session.document
+    serialized = doc.to_json()
+    urls = _stylesheet_urls(doc)  # Panel changes these at hand-out without document events
+    changed = []
+
+    def on_change(event):
+        changed.append(True)
+
+    doc.on_change(on_change)
+    bokehs = session._handle_pull
+
+    async def handle_pull(message, connection):  # as Bokeh's: a coroutine
+        del session._handle_pull  # later pulls: Bokeh's own
+        doc.remove_on_change(on_change)
+        if changed or getattr(doc.callbacks, "hold_value", None) is not None or _stylesheet_urls(doc) != urls:
+            _log.info("a spare page changed after it was serialized: its pull serializes it anew"); 
+            return await bokehs(message, connection)
+        return connection.protocol.create("PULL-DOC-REPLY", message.header["msgid"], _AsSerialized(serialized))
+
+    session._handle_pull = handle_pull
+
+
+def _loading():
+    """A page served lately that has not connected, or connected less than ``SPARE_DELAY_S`` ago: its scripts,
+    its pull and its first layout would wait behind a build on the event loop."""
+    now = time.monotonic()
+    for session, entry in list(_in_flight.items()):
+        if session.connection_count > 0 and entry[1] is None:
+            entry[1] = now
+        done = entry[1] is not None and now - entry[1] >= SPARE_DELAY_S
+        if session.destroyed or done or now - entry[0] > CONNECT_WAIT_S:
+            _in_flight.pop(session, None)
+    return bool(_in_flight)
+
+
+def _schedule(path):
+    """Build the next spare for ``path`` once no page is loading and no session is computing."""
+    from tornado.ioloop import IOLoop
+
+    if path in _scheduled or path in _spares or path not in _sources:
+        return
+    _scheduled.add(path)
+    loop = IOLoop.current()
+
+    def check():
+        if _loading() or _busy():
+            loop.call_later(POLL_S, check)
+            return
+        loop.add_callback(run)
+
+    async def run():
+        try:
+            await _build(path)
+        except Exception:  # a spare is an optimization: the next request builds its own page
+            _log.exception("building a spare page for %s failed", path)
+        finally:
+            _scheduled.discard(path)
+
+    loop.call_later(SPARE_DELAY_S, check)
+
+
+def _login_required():
+    """Panel checks a login in the page handler's ``get_session``; a spare is then never handed out."""
+    from panel.config import config
+
+    return bool(getattr(config, "oauth_provider", None) or getattr(config, "basic_auth", None))
+
+
+def _take(handler):
+    """The spare for this request's path, with a token made from this request; None when there is none."""
+    request = handler.request
+    if request.arguments or request.query or "Bokeh-Session-Id" in request.headers or _login_required():
+        return None
+    session = _spares.pop(request.path, None)
+    if session is None or session.destroyed:
+        return None
+    from bokeh.server.contexts import _RequestProxy
+
+    payload = handler._generate_token_payload()
+    token = _token(handler.application, session.id, payload)
+    session._token = token
+    context = session.document.session_context
+    if context is not None:
+        context._token = token
+        context._request = _RequestProxy(request, arguments=payload.get("arguments"),
+                                         cookies=payload.get("cookies"), headers=payload.get("headers"))
+    session._last_unsubscribe_time = time.monotonic() * 1000  # an unused session lingers from now, as a new one
+    session.unblock_expiration()
+    return session
+
+
+def install():
+    """Make Panel's page handler hand out spares (once per process); True when it did."""
+    if _installed:
+        return True
+    try:
+        from panel.io.server import DocHandler
+    except ImportError:
+        return False
+    original = getattr(DocHandler, "get_session", None)
+    if original is None or not hasattr(DocHandler, "_generate_token_payload"):
+        return False
+
+    async def get_session(self):
+        t0 = time.perf_counter()
+        session = _take(self)
+        how = "spare" if session is not None else "built"
+        if session is None:
+            session = await original(self)
+        # the browser's developer tools (and the tests) see how the page's session came about
+        self.set_header("Server-Timing", f'session;desc="{how}";dur={1000 * (time.perf_counter() - t0):.1f}')
+        if not self.request.arguments:
+            _sources.setdefault(self.request.path, (self.application_context, self.application,
+                                                    _plain_request(self.request)))
+        _in_flight[session] = [time.monotonic(), None]  # served at; connected at
+        _schedule(self.request.path)
+        return session
+
+    get_session.original = original
+    DocHandler.get_session = get_session
+    _installed.append(original)
+    return True
+
+
+def prepare_at_start(host, path="/"):
+    """Build the first spare as soon as the server runs (call before starting its event loop)."""
+    from tornado.ioloop import IOLoop
+
+    def first():
+        import panel as pn
+
+        for server, *_ in list(pn.state._servers.values()):
+            tornado_app = getattr(server, "_tornado", None)
+            context = getattr(tornado_app, "applications", {}).get(path) if tornado_app is not None else None
+            if context is None:
+                continue
+            request = _plain_request(_Address(host, path))
+            _sources.setdefault(path, (context, tornado_app, request))
+            _schedule(path)
+            return
+
+    IOLoop.current().add_callback(first)
+
+
+class _Address:
+    """The parts of a request a spare is built from."""
+
+    def __init__(self, host, path):
+        self.host, self.path, self.protocol = host, path, "http"
