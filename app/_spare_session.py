@@ -10,10 +10,13 @@ first result's images). Here the server keeps one session per page path
 built in advance (a *spare*), its document serialized once its first result
 is in: a request for the plain page (no query arguments) takes it, with a
 fresh token made from that request, and its pull gets the serialized
-document unless the document changed since. The next spare is built when
-every page served has connected (a build holds the event loop ~0.7 s, which
-would hold back a loading page's scripts and pull) and no session is
-computing; pages asked for back to back are built as before.
+document unless the document changed since. A build holds the event loop
+~0.7 s, so the next spare is built only when every page served has
+connected (a loading page's scripts and pull would wait behind it), no
+session is computing and no page has sent a message for ``QUIET_S``: a user
+busy with a page is not held up, and pages asked for back to back are built
+as before. A change made just as a build starts waits for it (once per page
+served, the build a visitor's request would otherwise have waited for).
 
 A request with arguments (a shared link, a saved design) builds its own
 session as before: its parameters are read while the session is built.
@@ -35,6 +38,9 @@ __all__ = ["install", "prepare_at_start", "SPARE_DELAY_S"]
 #: Seconds after the last page served has connected (its scripts loaded, its document pulled) before a spare
 #: is built: the page's first layout sends the server its sizes meanwhile.
 SPARE_DELAY_S = 1.0
+#: Seconds without a message from any page (a change, a zoom, a tab opened) before a spare is built: a build
+#: holds the event loop ~0.7 s, and a user busy with a page should not wait behind it.
+QUIET_S = 2.0
 #: The longest wait for a served page to connect before a spare is built anyway (s).
 CONNECT_WAIT_S = 10.0
 #: How often the builder checks whether the server is idle (s).
@@ -47,6 +53,7 @@ _spares: dict = {}
 _sources: dict = {}
 _scheduled: set = set()
 _in_flight = weakref.WeakKeyDictionary()  # session served -> [served at, connected at] (monotonic s)
+_last_message = [0.0]  # when a page last sent the server a message (monotonic s)
 
 
 def _busy():
@@ -190,7 +197,7 @@ def _schedule(path):
     loop = IOLoop.current()
 
     def check():
-        if _loading() or _busy():
+        if _loading() or _busy() or time.monotonic() - _last_message[0] < QUIET_S:
             loop.call_later(POLL_S, check)
             return
         loop.add_callback(run)
@@ -266,7 +273,24 @@ def install():
     get_session.original = original
     DocHandler.get_session = get_session
     _installed.append(original)
+    _note_messages()
     return True
+
+
+def _note_messages():
+    """Keep the time of the last message any page sent (Bokeh's websocket handler), for ``QUIET_S``."""
+    from bokeh.server.views.ws import WSHandler
+
+    bokehs = getattr(WSHandler, "on_message", None)
+    if bokehs is None or getattr(bokehs, "noted", False):
+        return
+
+    async def on_message(self, fragment):
+        _last_message[0] = time.monotonic()
+        return await bokehs(self, fragment)
+
+    on_message.noted = True
+    WSHandler.on_message = on_message
 
 
 def prepare_at_start(host, path="/"):

@@ -157,10 +157,10 @@ def time_first_render(browser, url):
         page.close()
 
 
-#: Seconds between first renders in the "first render" row: a visitor arriving at a server not busy with
-#: another page (it has built the next page in advance by then). "back to back" opens pages one after
-#: another, as a class opening the explorer at once.
-FIRST_PAUSE_S = 3.0
+#: Seconds between first renders in the "first render" row: a visitor arriving at a server that has been
+#: quiet for a while (it builds the next page once no page has sent a message for two seconds). "back to
+#: back" opens pages one after another, as a class opening the explorer at once.
+FIRST_PAUSE_S = 5.0
 
 
 def run(url, repeats):

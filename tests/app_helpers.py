@@ -139,6 +139,17 @@ class Page:
             return ""
         return self.text(".camsim-alert")
 
+    def wait_for_alert(self, words, timeout=TIMEOUT):
+        """Wait until the page's alert shows ``words``; return its text (a busy server may take a while)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            text = self.alert_text()
+            if words in text:
+                return text
+            if time.monotonic() > deadline:
+                raise AssertionError(f"the alert never said {words!r}; it shows {text!r}")
+            self.page.wait_for_timeout(100)
+
     def text(self, css):
         """Visible text of a Markdown-like pane (its content lives in a shadow root)."""
         return " ".join(self.page.locator(f"{css} p").all_inner_texts())

@@ -438,8 +438,7 @@ def test_chart_options_make_the_chart_a_link_reproduces_and_bad_ones_are_refused
         second.close()
     options.fill("size=100000")
     options.press("Enter")
-    page.page.wait_for_timeout(500)
-    assert "more than the" in page.alert_text()
+    page.wait_for_alert("more than the")
     assert options.input_value() == "angle=10,contrast=2,size=96"  # the box shows the chart in use again
     assert page.params()["scene"] == chosen["params"]["scene"]
 
@@ -492,8 +491,7 @@ def test_sensor_fields_of_an_electron_level_camera_from_the_sidebar(browser, pag
     _box_shows(page, "w-sensor-well", lambda text, box: text == "8000")
     # a full well below the read noise is refused, naming the field, and the box goes back
     page.type_number("w-sensor-well", 5)
-    page.page.wait_for_timeout(500)
-    assert "full_well_e" in page.alert_text()
+    page.wait_for_alert("full_well_e")
     _box_shows(page, "w-sensor-well", lambda text, box: text == "8000")
     page.type_number("w-sensor-read", 2)
     quiet = page.wait_for(lambda s: s["params"]["sensor"] == "pixel_pitch_um=2.93, read_noise_e=2" and not s["computing"])
@@ -547,8 +545,8 @@ def test_save_and_share_downloads_what_the_page_shows_and_loads_parameters(page,
     # a file that is not JSON is refused with a message, the parameters stay
     (tmp_path / "bad.json").write_text("{not json")
     page.page.locator(".w-json-upload input[type=file]").first.set_input_files(str(tmp_path / "bad.json"))
-    page.page.wait_for_timeout(500)
-    assert "not JSON" in page.alert_text() and page.params()["noise_sigma"] == 3.0
+    page.wait_for_alert("not JSON")
+    assert page.params()["noise_sigma"] == 3.0
 
 
 RAW_SOURCE_JS = """() => {
