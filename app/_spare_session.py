@@ -85,11 +85,11 @@ def _token(tornado_app, session_id, payload):
 async def _build(path):
     from bokeh.util.token import generate_session_id
 
+    from . import main
+
     context, tornado_app, request = _sources[path]
     session_id = generate_session_id(secret_key=tornado_app.secret_key, signed=tornado_app.sign_sessions)
     token = _token(tornado_app, session_id, {"headers": {}, "cookies": {}, "arguments": {}})
-    from . import main
-
     t0 = time.perf_counter()
     before = set(main.LIVE_STATES)
     session = await context.create_session_if_needed(session_id, request, token)
