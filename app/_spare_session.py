@@ -167,7 +167,7 @@ def _serialize_for_pull(session):
         del session._handle_pull  # later pulls: Bokeh's own
         doc.remove_on_change(on_change)
         if changed or getattr(doc.callbacks, "hold_value", None) is not None or _stylesheet_urls(doc) != urls:
-            _log.info("a spare page changed after it was serialized: its pull serializes it anew"); 
+            _log.info("a spare page changed after it was serialized: its pull serializes it anew")
             return await bokehs(message, connection)
         return connection.protocol.create("PULL-DOC-REPLY", message.header["msgid"], _AsSerialized(serialized))
 
@@ -188,7 +188,8 @@ def _loading():
 
 
 def _schedule(path):
-    """Build the next spare for ``path`` once no page is loading and no session is computing."""
+    """Build the next spare for ``path`` once no page is loading, no session is computing and no page has sent
+    a message for ``QUIET_S``."""
     from tornado.ioloop import IOLoop
 
     if path in _scheduled or path in _spares or path not in _sources:
@@ -223,7 +224,7 @@ def _login_required():
 def _take(handler):
     """The spare for this request's path, with a token made from this request; None when there is none."""
     request = handler.request
-    if request.arguments or request.query or "Bokeh-Session-Id" in request.headers or _login_required():
+    if request.arguments or "Bokeh-Session-Id" in request.headers or _login_required():
         return None
     session = _spares.pop(request.path, None)
     if session is None or session.destroyed:
@@ -263,9 +264,8 @@ def install():
             session = await original(self)
         # the browser's developer tools (and the tests) see how the page's session came about
         self.set_header("Server-Timing", f'session;desc="{how}";dur={1000 * (time.perf_counter() - t0):.1f}')
-        if not self.request.arguments:
-            _sources.setdefault(self.request.path, (self.application_context, self.application,
-                                                    _plain_request(self.request)))
+        if not self.request.arguments and self.request.path not in _sources:
+            _sources[self.request.path] = (self.application_context, self.application, _plain_request(self.request))
         _in_flight[session] = [time.monotonic(), None]  # served at; connected at
         _schedule(self.request.path)
         return session
