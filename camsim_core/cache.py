@@ -216,14 +216,14 @@ class Pipeline:
         """The ideal image (step key ``ideal_key``, or ``refused``: why there is none), its XYZ and the
         L*a*b* of each error map's ideal side, into ``result``; returns the tokens ``(t_ideal, t_ixyz)``
         (``None`` for a step that failed)."""
-        from . import ideal_image, load_monitor, metrics, to_xyz
+        from . import load_monitor, metrics, to_xyz
         from .rendering import white_xyz
 
         if refused is not None:
             result.errors["ideal"] = refused
             return None, None
         monitor = load_monitor(proc.monitor)
-        t_ideal, result.ideal = self._step("ideal", ideal_key, lambda: ideal_image(scene, camera, monitor), result)
+        t_ideal, result.ideal = self._step("ideal", ideal_key, lambda: self._ideal_image(scene, camera, monitor), result)
         if t_ideal is None:
             return None, None
         t_ixyz, result.ideal_xyz = self._step(
@@ -241,6 +241,24 @@ class Pipeline:
                 return t_ideal, t_ixyz
             self._ideal_side(("scielab", t_ixyz, spd), lambda: metrics.filtered_lab(_data(result.ideal_xyz), spd, white))
         return t_ideal, t_ixyz
+
+    def _ideal_image(self, scene, camera, monitor):
+        """:func:`camsim_core.ideal_image` of ``scene`` for ``camera``, the ideal camera's first stage's first
+        part (the cone sums over the scene's planes) kept: an exposure move re-scales them (the same numbers)."""
+        from .rendering import ideal
+
+        cam = ideal.ideal_camera(camera)
+        image = image_from_scene(scene)
+        for i, stage in enumerate(cam.architecture):
+            parts = getattr(stage, "prepare", None) if i == 0 else None
+            if parts is None:
+                image = stage(cam, image)
+                continue
+            first, first_uses, finish = parts
+            key = (self._memo["scene"][1], fingerprint(stage), _camera_key(cam, first_uses))
+            source = image
+            image = finish(cam, self._kept("ideal:prepare", key, lambda: first(cam, source)), reuse=False)
+        return ideal.render_ideal(image, monitor, name=f"ideal {scene.name}")
 
     def _step(self, name, key, compute, result):
         """The cached output of ``name`` for ``key``, or compute, time and remember it.
@@ -263,6 +281,17 @@ class Pipeline:
         token = next(_tokens)
         self._memo[name] = (key, token, value)
         return token, value
+
+    def _kept(self, name, key, compute):
+        """The value of a step's part that is not reported on its own (a stage's first part, :func:`stage`):
+        the cached one for ``key``, or ``compute()`` remembered under ``name``. A failure leaves nothing."""
+        memo = self._memo.get(name)
+        if memo is not None and memo[0] == key:
+            return memo[2]
+        self._memo.pop(name, None)
+        value = compute()
+        self._memo[name] = (key, None, value)
+        return value
 
     def run(self, scene, camera, processing=None):
         """Simulate ``camera`` on ``scene`` and process the result, re-using what has not changed.
@@ -302,6 +331,7 @@ class Pipeline:
             with contextlib.suppress(BaseException):
                 ideal.result()
             raise
+        result.ran = _merged(result.ran)
         result.elapsed = time.perf_counter() - t0
         return result
 
@@ -317,10 +347,18 @@ class Pipeline:
             fields = _all_fields(camera) if uses is None else uses
             key = (token, fingerprint(stage), _camera_key(camera, fields))
             name = getattr(stage, "__name__", repr(stage))
-            upstream = image
+            parts = getattr(stage, "prepare", None)
+            upstream, upstream_token = image, token
 
-            def compute(stage=stage, upstream=upstream):
-                return stage(camera, image_from_scene(scene) if upstream is None else upstream)
+            def compute(stage=stage, upstream=upstream, upstream_token=upstream_token, parts=parts, name=name):
+                source = image_from_scene(scene) if upstream is None else upstream
+                if parts is None:
+                    return stage(camera, source)
+                # a stage in two parts: its first part kept while the fields it reads stay the same
+                first, first_uses, finish = parts
+                first_key = (upstream_token, fingerprint(stage), _camera_key(camera, first_uses))
+                prepared = self._kept(f"stage:{name}:prepare", first_key, lambda: first(camera, source))
+                return finish(camera, prepared, reuse=False)
 
             token, image = self._step(f"stage:{name}", key, compute, result)
             if token is None:
@@ -353,6 +391,9 @@ class Pipeline:
         t_xyz = None
         if t_ren is not None:
             t_xyz, result.xyz = self._step("xyz", (t_ren, proc.monitor), lambda: to_xyz(result.rendered, monitor), result)
+        # while the ideal side still runs beside this one, the camera image's own L*a*b* (the larger half of each
+        # error map) is made here; after the join only the differences remain
+        early = self._camera_lab(result, proc, monitor, t_xyz) if t_xyz is not None and not ideal.done() else {}
         t_ideal, t_ixyz = _join(result, branch, ideal.result(), camera)
         if t_xyz is None or t_ixyz is None:
             return
@@ -366,6 +407,8 @@ class Pipeline:
                 xyz, ideal = metrics.cielab.check_pair(_data(result.xyz), _data(result.ideal_xyz))
                 to_lab = metrics.cielab._xyz_to_lab
                 ideal_lab = self._ideal_side(("cielab", t_ixyz), lambda: _lab_map(ideal, white))
+                if "cielab" in early:  # the same chunks, the same numbers
+                    return map_pixels(lambda x, ref: metrics.delta_e_lab(x, ref)[:, None], early["cielab"], ideal_lab)[..., 0]
                 return map_pixels(lambda x, ref: metrics.delta_e_lab(to_lab(x, white), ref)[:, None], xyz, ideal_lab)[..., 0]
 
             _, result.delta_e = self._step("delta_e", (t_xyz, t_ixyz), cielab, result)
@@ -381,9 +424,44 @@ class Pipeline:
                 # metrics.scielab, with the ideal image's filtered L*a*b* kept between moves
                 xyz, ideal = metrics.cielab.check_pair(_data(result.xyz), _data(result.ideal_xyz))
                 ideal_lab = self._ideal_side(("scielab", t_ixyz, spd), lambda: metrics.filtered_lab(ideal, spd, white))
-                return metrics.delta_e_lab(metrics.filtered_lab(xyz, spd, white), ideal_lab)
+                lab = early["scielab"][1] if early.get("scielab", (None,))[0] == spd else metrics.filtered_lab(xyz, spd, white)
+                return metrics.delta_e_lab(lab, ideal_lab)
 
             _, result.scielab = self._step("scielab", (t_xyz, t_ixyz, spd), scielab, result)
+
+    def _camera_lab(self, result, proc, monitor, t_xyz):
+        """The camera image's L*a*b* for each error map that must be made again (its XYZ changed):
+        ``{"cielab": lab, "scielab": (samples per degree, filtered lab)}``, the same arrays the error map
+        steps would make. Their time is reported under those steps. A failure is left to the step to report."""
+        from . import metrics
+        from .rendering import white_xyz
+
+        early = {}
+        white = np.asarray(white_xyz(monitor), float)
+        for metric, step in (("cielab", "delta_e"), ("scielab", "scielab")):
+            memo = self._memo.get(step)
+            if metric not in proc.metrics or (memo is not None and memo[0][0] == t_xyz):
+                continue
+            t0 = time.perf_counter()
+            try:
+                xyz = metrics.cielab.check_xyz(_data(result.xyz), "xyz1")
+                if metric == "cielab":
+                    early[metric] = _lab_map(xyz, white)
+                else:
+                    spd = _samples_per_degree(result.rendered, proc.viewing)
+                    early[metric] = (spd, metrics.filtered_lab(xyz, spd, white))
+            except (CamsimError, ValueError, TypeError, ArithmeticError):
+                continue
+            result.ran.append((step, time.perf_counter() - t0))
+        return early
+
+
+def _merged(ran):
+    """``ran`` with the entries of one step (a step made in parts) summed into its first."""
+    out = {}
+    for name, seconds in ran:
+        out[name] = out.get(name, 0.0) + seconds
+    return list(out.items())
 
 
 def _lab_map(xyz, white):

@@ -45,6 +45,62 @@ def test_exposure_change_reruns_from_the_sensor_stage(scene, camera):
                            "demosaic", "render", "ideal", "xyz", "ideal_xyz", "delta_e"]
 
 
+def test_exposure_and_f_stop_moves_rescale_the_kept_sums_with_the_numbers_of_a_fresh_run(scene, camera, monkeypatch):
+    """The sensor stage is made in two parts: its sums over the scene's planes (the camera's and the ideal
+    camera's cones) are kept while the sensors stay, so an exposure or f-stop move sums the cube zero times.
+    The outputs are those of the whole stage: simulate(), ideal_image() and a serial pipeline's fresh run."""
+    from camsim_core import cache
+    from camsim_core.simulation import sensor
+
+    sums = []
+    real_weighted_sum = sensor.weighted_sum
+
+    def counted(data, weights):
+        sums.append(weights.shape)
+        return real_weighted_sum(data, weights)
+
+    monkeypatch.setattr(sensor, "weighted_sum", counted)
+    both = Processing(metrics=("cielab", "scielab"))
+    p = Pipeline()
+    p.run(scene, camera, both)
+    assert len(sums) == 2  # the camera's sensors and the ideal camera's cones, once each
+    for moved in (camera.replace(exposure=0.13), camera.replace(exposure=0.13, f_stop=8.0)):
+        sums.clear()
+        r = p.run(scene, moved, both)
+        assert sums == [] and r.errors == {}
+        assert r.ran_steps[:2] == ["stage:sensor_responses", "stage:resample"] and "ideal" in r.ran_steps
+        assert np.array_equal(_array(r.raw), _array(cc.simulate(scene, moved)))
+        monitor = cc.load_monitor(both.monitor)
+        assert np.array_equal(_array(r.ideal), _array(cc.ideal_image(scene, moved, monitor)))
+        with monkeypatch.context() as serial:  # one core: no ideal side beside, the error maps made at the join
+            serial.setattr(cache, "CORES", 1)
+            fresh = Pipeline().run(scene, moved, both)
+        for name in OUTPUTS:
+            assert np.array_equal(_array(getattr(r, name)), _array(getattr(fresh, name))), name
+        # a linear sensor: response proportional to exposure time and aperture area
+        expected_gain = moved.exposure / moved.cal_exposure * (moved.cal_f_stop / moved.f_stop) ** 2
+        assert r.raw.gain == fresh.raw.gain == pytest.approx(expected_gain, rel=1e-15)
+    # other sensors: the camera's sums are made again, the ideal camera's cones are still at hand
+    sums.clear()
+    p.run(scene, camera.replace(exposure=0.13, f_stop=8.0, sensors=cc.load_camera("gaussian-4").sensors), both)
+    assert len(sums) == 1 and sums[0][1] == 4
+
+
+def test_a_stage_in_two_parts_names_fields_it_reads():
+    from camsim_core.simulation._stage import stage
+
+    def first(camera, image):
+        return image
+
+    def finish(camera, prepared, reuse=False):
+        return prepared
+
+    with pytest.raises(ValueError, match="among the stage's uses"):
+        stage("exposure", prepare=(first, ("sensors",), finish))
+    marked = stage("sensors", "exposure", prepare=(first, ("sensors",), finish))(lambda camera, image: image)
+    assert marked.prepare == (first, ("sensors",), finish) and marked.uses == ("sensors", "exposure")
+
+
 def test_mosaic_and_processing_changes_rerun_only_downstream(scene, camera):
     p = Pipeline()
     p.run(scene, camera, CIELAB)
@@ -177,18 +233,20 @@ def test_the_ideal_side_runs_beside_the_camera_side_with_the_same_numbers(scene,
 
     from camsim_core import cache
 
-    threads = {}
-    real_ideal_image, real_demosaic = cc.ideal_image, cc.demosaic
+    from camsim_core.rendering import ideal as ideal_module
 
-    def ideal_image(*args, **kw):
+    threads = {}
+    real_render_ideal, real_demosaic = ideal_module.render_ideal, cc.demosaic
+
+    def render_ideal(*args, **kw):  # the last of the ideal image's steps
         threads["ideal"] = threading.current_thread().name
-        return real_ideal_image(*args, **kw)
+        return real_render_ideal(*args, **kw)
 
     def demosaic(*args, **kw):
         threads["demosaic"] = threading.current_thread().name
         return real_demosaic(*args, **kw)
 
-    monkeypatch.setattr(cc, "ideal_image", ideal_image)
+    monkeypatch.setattr(ideal_module, "render_ideal", render_ideal)
     monkeypatch.setattr(cc, "demosaic", demosaic)
     p = Pipeline()
     p.run(scene, camera, Processing())
@@ -236,12 +294,14 @@ def test_an_unexpected_error_waits_for_the_ideal_side(scene, camera, monkeypatch
     import threading
     import time as _time
 
-    real_ideal_image = cc.ideal_image
+    from camsim_core.rendering import ideal as ideal_module
+
+    real_render_ideal = ideal_module.render_ideal
     ended = threading.Event()
 
-    def slow_ideal_image(*args, **kw):
+    def slow_render_ideal(*args, **kw):  # the last of the ideal image's steps
         _time.sleep(0.3)
-        out = real_ideal_image(*args, **kw)
+        out = real_render_ideal(*args, **kw)
         ended.set()
         return out
 
@@ -250,7 +310,7 @@ def test_an_unexpected_error_waits_for_the_ideal_side(scene, camera, monkeypatch
 
     p = Pipeline()
     p.run(scene, camera, CIELAB)
-    monkeypatch.setattr(cc, "ideal_image", slow_ideal_image)
+    monkeypatch.setattr(ideal_module, "render_ideal", slow_render_ideal)
     monkeypatch.setattr(cc, "demosaic", no_memory)
     with pytest.raises(MemoryError):
         p.run(scene, camera.replace(exposure=0.12), CIELAB)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from ..camera import camera_preset, load_camera
 
-__all__ = ["ideal_camera", "ideal_image"]
+__all__ = ["ideal_camera", "ideal_image", "render_ideal"]
 
 
 def ideal_camera(camera):
@@ -46,11 +46,17 @@ def ideal_image(scene, camera, monitor, *, white=None, scale=None, **simulate_kw
     saturates (the cones are on the DCS-200's common scale, so the levels
     are similar). ``white`` / ``scale``: see :func:`camsim_core.render`.
     """
-    from ..monitor import load_monitor
     from ..simulation import simulate
+
+    raw = simulate(scene, ideal_camera(camera), **simulate_kwargs)
+    return render_ideal(raw, monitor, name=f"ideal {scene.name}", white=white, scale=scale)
+
+
+def render_ideal(raw, monitor, *, name, white=None, scale=None):
+    """The ideal camera's simulated image ``raw`` rendered as the ideal image (baseline, on ``monitor``),
+    named ``name``: the second half of :func:`ideal_image`, for a cache that simulated the ideal camera itself."""
+    from ..monitor import load_monitor
     from . import render
 
-    cam = ideal_camera(camera)
-    raw = simulate(scene, cam, **simulate_kwargs)
     out = render(raw, load_monitor(monitor), method="baseline", white=white, scale=scale)
-    return out.then("ideal", name=f"ideal {scene.name}")
+    return out.then("ideal", name=name)

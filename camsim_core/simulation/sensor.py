@@ -38,18 +38,49 @@ def quantal_gain(camera):
 
 def sensor_weights(camera, wavelengths):
     """(N, K) weights that take the N planes to K sensor responses, gain included; and the gain."""
+    t, gain = _unit_weights(camera, wavelengths)
+    return np.ascontiguousarray(t * gain), gain
+
+
+def _unit_weights(camera, wavelengths):
+    """(N, K) weights at unit gain (for "Quanta" sensitivities times lambda / hc, photons per joule), and the
+    gain that takes their sums to digital units (:func:`quantal_gain` or :func:`exposure_gain`)."""
     w = np.asarray(wavelengths, float)
     check_overlap(camera.sensors.wavelengths, w, f"sensitivities of {camera.name or 'the camera'}")
     t = camera.sensors.on(w)
     if camera.sensors.unit == "Quanta":
-        gain = quantal_gain(camera)
-        t = t * (w * 1e-9 / (PLANCK * LIGHT_SPEED))[None, :]
+        return np.ascontiguousarray((t * (w * 1e-9 / (PLANCK * LIGHT_SPEED))[None, :]).T), quantal_gain(camera)
+    return np.ascontiguousarray(t.T), exposure_gain(camera)
+
+
+def _weighted_planes(camera, image):
+    """The sensor stage's first part: the weighted sums of the planes at unit gain.
+
+    Reads the camera's ``sensors`` only, so a cache keeps it while exposure
+    and f-stop move (:func:`sensor_responses`, ``prepare``)."""
+    if image.space != "spectral":
+        raise ParameterError("sensor_responses", f"needs spectral planes, but the image is already in {image.space!r} space")
+    weights, _ = _unit_weights(camera, image.wavelengths)
+    data = image.data
+    if data.dtype != np.float32:
+        data = np.asarray(data, np.float64)
+    return image, weighted_sum(data, weights)
+
+
+def _scaled_responses(camera, prepared, *, reuse=False):
+    """The sensor stage's second part: ``prepared`` (:func:`_weighted_planes`) times the exposure's gain,
+    as the stage's output image. ``reuse``: the sums may be scaled in place (nothing else holds them)."""
+    image, sums = prepared
+    _, gain = _unit_weights(camera, image.wavelengths)
+    if reuse:
+        sums *= sums.dtype.type(gain)
     else:
-        gain = exposure_gain(camera)
-    return np.ascontiguousarray((t * gain).T), gain
+        sums = sums * sums.dtype.type(gain)
+    return _response_image(camera, image, sums, gain)
 
 
-@stage("sensors", "exposure", "f_stop", "cal_exposure", "cal_f_stop", "pixel_size", "electrons_per_dn", "fill_factor")
+@stage("sensors", "exposure", "f_stop", "cal_exposure", "cal_f_stop", "pixel_size", "electrons_per_dn", "fill_factor",
+       prepare=(_weighted_planes, ("sensors",), _scaled_responses))
 def sensor_responses(camera, image):
     """Weighted sums of the spectral planes, one per sensor class, scaled for exposure and f-stop.
 
@@ -61,8 +92,13 @@ def sensor_responses(camera, image):
     Sensitivities are interpolated onto the scene's wavelengths and are zero
     outside their measured range. A float32 scene gives float32 responses
     (relative error ~1e-7, far below any sensor's noise).
+
+    The sums are made at unit gain and then scaled, in two parts that a cache
+    can keep apart (:mod:`camsim_core.cache`): an exposure or f-stop move
+    then re-scales the kept sums instead of summing the cube again, with the
+    numbers of this function.
     """
-    return respond(camera, image, weighted_sum)
+    return _scaled_responses(camera, _weighted_planes(camera, image), reuse=True)
 
 
 def weighted_sum(data, weights):
@@ -86,23 +122,29 @@ def respond(camera, image, combine):
     if image.space != "spectral":
         raise ParameterError("sensor_responses", f"needs spectral planes, but the image is already in {image.space!r} space")
     weights, gain = sensor_weights(camera, image.wavelengths)
+    data = image.data
+    if data.dtype != np.float32:
+        data = np.asarray(data, np.float64)
+    return _response_image(camera, image, combine(data, weights), gain)
+
+
+def _response_image(camera, image, data, gain):
+    """The sensor stage's output image: ``data`` (H, W, K) with the gain, units and the sensitivities
+    rendering inverts (Eq. 1.4)."""
     # the sensitivities the responses were made with, per unit radiance (for quantal sensors the quantum
     # efficiency times lambda / hc, photons per joule): rendering inverts them (Eq. 1.4), so they must carry
     # the same units as the responses divided by the gain
     sensitivities = camera.sensors.on(image.wavelengths)  # cached by Sensors.on
     if camera.sensors.unit == "Quanta":
-        sensitivities = weights.T / gain
-    data = image.data
-    if data.dtype != np.float32:
-        data = np.asarray(data, np.float64)
+        sensitivities = _unit_weights(camera, image.wavelengths)[0].T
     return image.then(
         "sensor_responses",
-        data=combine(data, weights),
+        data=data,
         sensitivities=sensitivities,
         sensor_names=camera.sensors.names,
         exposure=camera.exposure,
         f_stop=camera.f_stop,
-        gain=gain,
+        gain=float(gain),
         space="sensor",
         unit="digital units",
     )
