@@ -31,7 +31,7 @@ class ThreadPool:
     """
 
     def __init__(self, thread_name_prefix):
-        self._prefix = thread_name_prefix
+        self.prefix = thread_name_prefix
         self._forget()
         os.register_at_fork(after_in_child=self._forget)
 
@@ -42,7 +42,7 @@ class ThreadPool:
         """The pool's executor (``concurrent.futures.ThreadPoolExecutor``)."""
         with self._lock:
             if self._pool is None:
-                self._pool = ThreadPoolExecutor(CORES, thread_name_prefix=self._prefix)
+                self._pool = ThreadPoolExecutor(CORES, thread_name_prefix=self.prefix)
             return self._pool
 
 
@@ -54,10 +54,13 @@ def run_blocks(fn, bounds, *, values):
     ``values`` (the work, in values written) is at least :data:`PARALLEL_VALUES`, else in turn here.
 
     ``fn`` must touch only its own block of the output. Exceptions are raised here, after every block ended.
+    Called from one of the pool's own threads (a block whose work splits again), the blocks run in turn
+    there: a block waiting on the pool it occupies could wait forever.
     """
     edges = [int(b) for b in bounds]
     pairs = [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
-    if CORES == 1 or len(pairs) < 2 or values < PARALLEL_VALUES:
+    nested = threading.current_thread().name.startswith(_blocks.prefix)
+    if CORES == 1 or len(pairs) < 2 or values < PARALLEL_VALUES or nested:
         for a, b in pairs:
             fn(a, b)
         return

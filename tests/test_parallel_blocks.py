@@ -146,3 +146,48 @@ def test_a_forked_child_gets_pools_of_its_own():
     with multiprocessing.get_context("fork").Pool(1) as pool:
         child = pool.map_async(_work_in_a_forked_child, [0]).get(timeout=120)
     assert child == [parent]
+
+
+def test_blocks_that_split_their_work_again_run_it_in_their_own_thread(monkeypatch):
+    """A block that calls run_blocks again (S-CIELAB's bands converting by chunks) must not wait on the pool
+    it occupies: its inner blocks run in turn in its own thread, and the whole finishes."""
+    import threading
+
+    monkeypatch.setattr(parallel, "CORES", 2)
+    inner_threads = {}
+    out = np.zeros(8, int)
+
+    def outer(a, b):
+        def inner(c, d):
+            inner_threads[c] = (threading.current_thread().name, outer_thread)
+            out[c:d] += 1
+
+        outer_thread = threading.current_thread().name
+        parallel.run_blocks(inner, [a * 4, a * 4 + 2, a * 4 + 4], values=parallel.PARALLEL_VALUES)
+
+    done = threading.Event()
+    watcher = threading.Thread(target=lambda: (parallel.run_blocks(outer, [0, 1, 2], values=parallel.PARALLEL_VALUES),
+                                               done.set()), daemon=True)
+    watcher.start()
+    assert done.wait(30), "nested blocks waited on the pool they occupy"
+    assert out.tolist() == [1] * 8
+    assert all(name == outer_name and name.startswith("camsim-block") for name, outer_name in inner_threads.values())
+
+
+def test_scielab_bands_on_two_cores_equal_one_core(monkeypatch):
+    """S-CIELAB of a 1100 x 1400 image: four bands of 275 rows, two groups on the cores (each group's transforms on
+    one thread), give the numbers of the bands in turn (transforms split over the cores)."""
+    from camsim_core.metrics import s_cielab
+
+    rng = np.random.default_rng(11)
+    xyz = rng.uniform(1, 90, (1100, 1400, 3)).astype(np.float32)
+    white = np.array([95.0, 100.0, 108.9])
+    assert len(s_cielab._band_groups(xyz.shape[:2])) == (3 if CORES >= 2 else 2)
+    monkeypatch.setattr(s_cielab, "CORES", 2)
+    assert s_cielab._band_groups(xyz.shape[:2]) == [0, 550, 1100]  # four bands of 275 rows (374 at most: 3, made 4), two to a core
+    for fn in (lambda: s_cielab.filtered_lab(xyz, 102.6, white), lambda: s_cielab.scielab_filter(xyz, 102.6)):
+        two = on_cores(monkeypatch, 2, fn)
+        monkeypatch.setattr(s_cielab, "CORES", 1)
+        one = on_cores(monkeypatch, 1, fn)
+        monkeypatch.setattr(s_cielab, "CORES", 2)
+        np.testing.assert_array_equal(one, two)

@@ -193,12 +193,16 @@ def test_filtering_by_many_bands_matches_direct_2d_convolution(monkeypatch, band
 
 
 def test_wide_images_are_filtered_in_shorter_bands():
-    """Over BAND_PIXELS / BAND_ROWS pixels wide, a band has fewer rows (not under 128)."""
+    """Over BAND_PIXELS / BAND_ROWS pixels wide, a band has fewer rows (not under 128); an image of several
+    bands gets an even number of equal ones (two cores, the same work each)."""
     from camsim_core.metrics import s_cielab
 
-    assert s_cielab._band_rows(300) == 512
-    assert s_cielab._band_rows(4000) == max(128, (1 << 19) // 4000) == 131
-    assert s_cielab._band_rows(100_000) == 128
+    assert s_cielab._band_rows((512, 300)) == 512  # one band
+    assert s_cielab._band_rows((2000, 300)) == 500  # 4 bands of at most 512 rows
+    assert s_cielab._band_rows((1012, 1317)) == 253  # 398 rows at most: 3 bands, made 4
+    assert s_cielab._band_rows((3000, 4000)) == 125  # (1 << 19) // 4000 == 131 rows at most: 23 bands, made 24
+    assert s_cielab._band_rows((100, 100_000)) == 100  # 128 rows at most: one band
+    assert s_cielab._band_rows((1000, 100_000)) == 125  # 8 bands of 125 rows
 
 
 @pytest.fixture(scope="module")
@@ -239,9 +243,9 @@ def test_rendered_images_without_a_monitor_are_refused(rendered_pair):
 
 
 def test_scielab_of_rendered_images_holds_no_full_size_temporary(rendered_pair):
-    """S-CIELAB of rendered float32 images 1200 and 3600 rows high (1200 wide), traced by tracemalloc (numpy
-    reports its arrays to it): the memory beyond the (H, W) output is the same for both (bands of rows),
-    where one full-size XYZ, opponent or filtered image would add 2 x 1200 x 1200 x 12 bytes (33 MiB)."""
+    """S-CIELAB of rendered float32 images 2400 and 4800 rows high (1200 wide), traced by tracemalloc (numpy
+    reports its arrays to it): the memory beyond the (H, W) output is the same for both (bands of 400 rows),
+    where one full-size XYZ, opponent or filtered image would add 2 x 2400 x 1200 x 12 bytes (66 MiB)."""
     import tracemalloc
 
     mon, cam, ren, ideal = rendered_pair
@@ -259,9 +263,12 @@ def test_scielab_of_rendered_images_holds_no_full_size_temporary(rendered_pair):
         assert out.shape == (h, 1200) and np.all(np.isfinite(out))
         return peak - out.nbytes
 
-    transient(1200)  # kernel spectra, FFT plans, tables: made once, not the call's
-    small, large = transient(1200), transient(3600)
-    assert large - small < 8 * 2**20, f"{small / 2**20:.0f} MiB at 1200 rows, {large / 2**20:.0f} MiB at 3600"
+    from camsim_core.metrics import s_cielab
+
+    assert s_cielab._band_rows((2400, 1200)) == s_cielab._band_rows((4800, 1200)) == 400  # 6 and 12 bands
+    transient(2400)  # kernel spectra, FFT plans, tables: made once, not the call's
+    small, large = transient(2400), transient(4800)
+    assert large - small < 8 * 2**20, f"{small / 2**20:.0f} MiB at 2400 rows, {large / 2**20:.0f} MiB at 4800"
 
 
 def test_xyz_filtering_is_opponent_filtering_between_the_two_matrices():

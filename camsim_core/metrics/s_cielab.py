@@ -73,7 +73,7 @@ import scipy.fft
 
 from .._chunks import map_pixels
 from .._compiled import compiled
-from .._parallel import CORES
+from .._parallel import CORES, PARALLEL_VALUES, run_blocks, split
 from ..errors import ParameterError
 from .cielab import _delta_e_map, _method, _xyz_to_lab, check_white, check_xyz, rendered_pair
 
@@ -279,13 +279,46 @@ def _band_spectra(spd, cy, cx, fy, fx, dtype):
     return spectra
 
 
-def _band_rows(width):
-    """Output rows per band: :data:`BAND_ROWS`, fewer for images wider than :data:`BAND_PIXELS` / 512
-    (at least 128), so a band's temporaries stay a few tens of MiB."""
-    return int(min(BAND_ROWS, max(128, BAND_PIXELS // max(int(width), 1))))
+def _band_rows(shape):
+    """Output rows per band of an image of ``shape`` (H, W): at most :data:`BAND_ROWS`, fewer for images
+    wider than :data:`BAND_PIXELS` / 512 (at least 128), so a band's temporaries stay a few tens of MiB;
+    and an even number of equal bands when there are several, so that two cores get the same work
+    (:func:`_band_groups`; the bands do not depend on the cores, nor do the numbers)."""
+    H, W = shape
+    limit = int(min(BAND_ROWS, max(128, BAND_PIXELS // max(int(W), 1))))
+    count = -(-int(H) // limit)
+    if count > 1:
+        count += count % 2
+    return max(1, -(-int(H) // count))
 
 
-def _filtered_bands(image, spd, *, opponent_in=False, opponent_out=False, to_xyz=None):
+def _band_groups(shape):
+    """Edges (output rows) of consecutive groups of whole bands (:func:`_band_rows`), one group per core, for
+    :func:`_filter_image_rows`; one group when the image has a single band or too few values to pay (the
+    bands are the same either way, so are the numbers)."""
+    H, W = shape
+    band = min(H, _band_rows((H, W)))
+    count = -(-H // band)
+    if CORES == 1 or count < 2 or H * W * 3 < PARALLEL_VALUES:
+        return [0, H]
+    return [min(H, int(e) * band) for e in split(count, CORES)]
+
+
+def _filter_image_rows(image, spd, write, **kw):
+    """``write(i0, i1, band)`` for every band of :func:`_filtered_bands`, groups of bands on the machine's
+    cores (:func:`_band_groups`; each group's transforms on one thread). ``write`` must touch only rows
+    i0..i1 of its output, and must not wait on the block pool (it runs on it)."""
+    groups = _band_groups(image.shape[:2])
+    on_cores = len(groups) > 2
+
+    def group(r0, r1):
+        for i0, i1, band in _filtered_bands(image, spd, rows=(r0, r1), split_transforms=not on_cores, **kw):
+            write(i0, i1, band)
+
+    run_blocks(group, groups, values=image.size)
+
+
+def _filtered_bands(image, spd, *, opponent_in=False, opponent_out=False, to_xyz=None, rows=None, split_transforms=True):
     """Yield ``(i0, i1, band)``: output rows i0..i1 of the S-CIELAB filtered image (H, W, 3), band by band.
 
     ``image`` (H, W, 3) is XYZ (or opponent channels with ``opponent_in``,
@@ -301,12 +334,15 @@ def _filtered_bands(image, spd, *, opponent_in=False, opponent_out=False, to_xyz
     that turn each band into Lab or a difference at once (:func:`scielab`)
     hold nothing of the image's size but their inputs and output. In the
     image's dtype (float32 stays float32: scipy.fft transforms in single
-    precision).
+    precision). ``rows``: only the bands starting in output rows
+    ``rows[0]..rows[1]`` (``rows[0]`` a band's start; :func:`_band_groups`).
+    ``split_transforms``: a large band's transforms on the machine's cores
+    (the same numbers on one).
     """
     H, W = image.shape[:2]
     dt = image.dtype
     py, px, cy, cx = _plan(spd, (H, W))
-    band = min(H, _band_rows(W))
+    band = min(H, _band_rows((H, W)))
     fy = scipy.fft.next_fast_len(band + 2 * cy, real=True)
     # columns: the mirrored image after ``a`` zeros, where the kernel reaches past the mirror (small images);
     # a transform of W + 2 max(px, cx) points holds the valid part unaliased (the mirror is as wide as the
@@ -324,8 +360,9 @@ def _filtered_bands(image, spd, *, opponent_in=False, opponent_out=False, to_xyz
     to_planes, from_planes = _opponent_kernel(), _back_kernel()
     # transforms of half a megapixel or more on the machine's cores; smaller ones lose more to the threads
     # than they gain (the default scene's: +15 %; a 4000-wide image's: -15 to -30 %)
-    workers = CORES if fy * fx >= TRANSFORM_PIXELS_ON_CORES else 1
-    for i0 in range(0, H, band):
+    workers = CORES if split_transforms and fy * fx >= TRANSFORM_PIXELS_ON_CORES else 1
+    r0, r1 = (0, H) if rows is None else rows
+    for i0 in range(r0, r1, band):
         i1 = min(H, i0 + band)
         # mirrored rows that output rows i0..i1 reach: [i0 + py - cy, i1 + py + cy), zero outside the mirror
         lo, hi = i0 + py - cy, i1 + py + cy
@@ -406,8 +443,11 @@ _back_kernel = compiled(_back_rows)
 def _filter_image(image, spd, **kw):
     """The whole filtered image (H, W, 3) of :func:`_filtered_bands`, written band by band."""
     out = np.empty(image.shape, image.dtype)
-    for i0, i1, band in _filtered_bands(image, spd, **kw):
+
+    def write(i0, i1, band):
         out[i0:i1] = band
+
+    _filter_image_rows(image, spd, write, **kw)
     return out
 
 
@@ -460,8 +500,11 @@ def filtered_lab(xyz, samples_per_degree, white):
     if a.ndim != 3:
         raise ParameterError("xyz", f"must be an (H, W, 3) image, got shape {a.shape}")
     out = np.empty(a.shape, a.dtype)
-    for i0, i1, band in _filtered_bands(a, spd):
+
+    def write(i0, i1, band):
         out[i0:i1] = _xyz_to_lab(band, w)
+
+    _filter_image_rows(a, spd, write)
     return out
 
 
