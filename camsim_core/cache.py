@@ -16,12 +16,21 @@ The steps, in order:
   ``xyz`` and ``ideal_xyz`` (both on the monitor), ``delta_e`` (CIELAB) and
   ``scielab`` (S-CIELAB) error maps.
 
+A stage made in two parts (``prepare`` of :func:`camsim_core.simulation._stage.stage`:
+the sensor stage's sums over the spectral planes, then the exposure's gain)
+keeps its first part while the fields that part reads stay the same, so an
+exposure or f-stop move scales the kept sums instead of summing the cube
+again, for the camera and for the ideal camera's cones; a fresh run makes
+the same two parts, so the numbers are the same.
+
 The ideal image's side (``ideal``, ``ideal_xyz`` and the ideal image's
 L*a*b* for each error map) needs nothing of the camera's image: when it must
 be recomputed (a new scene, exposure, geometry or monitor) it runs on a
 thread of its own beside the camera's side, on the core the camera's mostly
 unsplit small steps leave idle (an exposure move on the default scene: ~28
 -> ~22 ms); on one core, and when it is cached, it runs in the calling thread.
+Meanwhile, on an image that small, the camera's side makes its own image's
+L*a*b* for the error maps, so that only the differences wait for the join.
 
 Each call to :meth:`Pipeline.run` records which steps ran and how long each
 took (``Result.ran``, in the order of a serial run) and its wall-clock time
@@ -50,7 +59,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._chunks import map_pixels
-from ._parallel import CORES, ThreadPool
+from ._parallel import CORES, PARALLEL_VALUES, ThreadPool
 from .datasets.sensors import Sensors
 from .errors import CamsimError
 from .image import image_from_scene
@@ -392,8 +401,11 @@ class Pipeline:
         if t_ren is not None:
             t_xyz, result.xyz = self._step("xyz", (t_ren, proc.monitor), lambda: to_xyz(result.rendered, monitor), result)
         # while the ideal side still runs beside this one, the camera image's own L*a*b* (the larger half of each
-        # error map) is made here; after the join only the differences remain
-        early = self._camera_lab(result, proc, monitor, t_xyz) if t_xyz is not None and not ideal.done() else {}
+        # error map) is made here, and after the join only the differences remain; for an image small enough
+        # that its steps run on one core (a large one's S-CIELAB bands already take both: measured on a 1024^2
+        # scene, the two sides then only fought for them, 1-10 % slower)
+        small = t_xyz is not None and _data(result.xyz).size < PARALLEL_VALUES
+        early = self._camera_lab(result, proc, monitor, t_xyz) if small and not ideal.done() else {}
         t_ideal, t_ixyz = _join(result, branch, ideal.result(), camera)
         if t_xyz is None or t_ixyz is None:
             return

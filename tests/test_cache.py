@@ -1,5 +1,7 @@
 """The explorer's incremental pipeline (camsim_core.cache): what re-runs, and exact equality with a fresh run."""
 
+import time
+
 import numpy as np
 import pytest
 
@@ -60,6 +62,21 @@ def test_exposure_and_f_stop_moves_rescale_the_kept_sums_with_the_numbers_of_a_f
         return real_weighted_sum(data, weights)
 
     monkeypatch.setattr(sensor, "weighted_sum", counted)
+    # the ideal side made slow, so that (on two cores) the camera image's L*a*b* is made while it runs
+    from camsim_core.rendering import ideal as ideal_module
+
+    real_render_ideal, real_camera_lab, early = ideal_module.render_ideal, Pipeline._camera_lab, []
+
+    def slow_render_ideal(*args, **kw):
+        time.sleep(0.05)
+        return real_render_ideal(*args, **kw)
+
+    def camera_lab(self, *args):
+        early.append(real_camera_lab(self, *args))
+        return early[-1]
+
+    monkeypatch.setattr(ideal_module, "render_ideal", slow_render_ideal)
+    monkeypatch.setattr(Pipeline, "_camera_lab", camera_lab)
     both = Processing(metrics=("cielab", "scielab"))
     p = Pipeline()
     p.run(scene, camera, both)
@@ -80,6 +97,8 @@ def test_exposure_and_f_stop_moves_rescale_the_kept_sums_with_the_numbers_of_a_f
         # a linear sensor: response proportional to exposure time and aperture area
         expected_gain = moved.exposure / moved.cal_exposure * (moved.cal_f_stop / moved.f_stop) ** 2
         assert r.raw.gain == fresh.raw.gain == pytest.approx(expected_gain, rel=1e-15)
+    if cache.CORES > 1:  # the moves' error maps were made from the camera's L*a*b* made beside the ideal side
+        assert len(early) >= 2 and all(set(e) == {"cielab", "scielab"} for e in early[-2:])
     # other sensors: the camera's sums are made again, the ideal camera's cones are still at hand
     sums.clear()
     p.run(scene, camera.replace(exposure=0.13, f_stop=8.0, sensors=cc.load_camera("gaussian-4").sensors), both)
