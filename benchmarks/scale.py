@@ -240,6 +240,7 @@ def child_explorer(repeats):
             ("noise 0<->2, CIELAB", [(camera, Processing(metrics=("cielab",))), (camera.replace(noise_sigma=2.0), Processing(metrics=("cielab",)))]),
             ("noise 0<->2, S-CIELAB", [(camera, Processing()), (camera.replace(noise_sigma=2.0), Processing())]),
             ("exposure 0.1<->0.12, CIELAB", [(camera, Processing(metrics=("cielab",))), (camera.replace(exposure=0.12), Processing(metrics=("cielab",)))]),
+            ("exposure 0.1<->0.12, S-CIELAB", [(camera, Processing()), (camera.replace(exposure=0.12), Processing())]),
         ):
             pipe = Pipeline()
             pipe.run(scene, *pair[0])
