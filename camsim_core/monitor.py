@@ -231,7 +231,9 @@ def _render_rows(rows, m, scale, limits, lo, hi, buckets, out, unsure):
 
 def _render_rows3(rows, m, scale, limits, lo, hi, buckets, out, unsure):
     """:func:`_render_rows` for three sensors, a pixel's three values held for its three channels (the same
-    numbers, in the same order of operations; a quarter less time than the general loop)."""
+    numbers, in the same order of operations; a quarter less time than the general loop). Its clipping and
+    lookup repeat the general kernel's lines: each kernel is compiled alone, and a helper shared between
+    them would have to be compiled on its own and inlined."""
     count = 0
     top = limits[1] * buckets
     stride = buckets + 1

@@ -58,13 +58,17 @@ def _weighted_planes(camera, image):
 
     Reads the camera's ``sensors`` only, so a cache keeps it while exposure
     and f-stop move (:func:`sensor_responses`, ``prepare``)."""
+    data = _spectral_data(image)
+    weights, _ = _unit_weights(camera, image.wavelengths)
+    return image, weighted_sum(data, weights)
+
+
+def _spectral_data(image):
+    """The (H, W, N) spectral planes the sensor stage reads: float32 kept, anything else float64."""
     if image.space != "spectral":
         raise ParameterError("sensor_responses", f"needs spectral planes, but the image is already in {image.space!r} space")
-    weights, _ = _unit_weights(camera, image.wavelengths)
     data = image.data
-    if data.dtype != np.float32:
-        data = np.asarray(data, np.float64)
-    return image, weighted_sum(data, weights)
+    return data if data.dtype == np.float32 else np.asarray(data, np.float64)
 
 
 def _scaled_responses(camera, prepared, *, reuse=False):
@@ -119,12 +123,8 @@ def respond(camera, image, combine):
     else about the result (units, gain, the sensitivities rendering inverts)
     is set here, once.
     """
-    if image.space != "spectral":
-        raise ParameterError("sensor_responses", f"needs spectral planes, but the image is already in {image.space!r} space")
+    data = _spectral_data(image)
     weights, gain = sensor_weights(camera, image.wavelengths)
-    data = image.data
-    if data.dtype != np.float32:
-        data = np.asarray(data, np.float64)
     return _response_image(camera, image, combine(data, weights), gain)
 
 
