@@ -115,6 +115,7 @@ def _resample_rows(src, iy, wy, ixk, wxk, out):
     """
     h, n = out.shape
     row = np.empty(src.shape[1], dtype=out.dtype)
+    taps = ixk.shape[1]
     for r in range(h):
         row[:] = 0
         for s in range(iy.shape[1]):
@@ -124,11 +125,18 @@ def _resample_rows(src, iy, wy, ixk, wxk, out):
                 for x in range(line.size):
                     row[x] += a * line[x]
         o = out[r]
-        for q in range(n):
-            acc = 0.0
-            for t in range(ixk.shape[1]):
-                acc += wxk[q, t] * row[ixk[q, t]]
-            o[q] = acc
+        if taps == 2:  # interpolation (the camera finer than the scene): the two taps written out, the same
+            for q in range(n):  # sums in the same order, 1.4-1.8x faster at 2048^2 -> 3000 x 4000
+                acc = 0.0
+                acc += wxk[q, 0] * row[ixk[q, 0]]
+                acc += wxk[q, 1] * row[ixk[q, 1]]
+                o[q] = acc
+        else:
+            for q in range(n):
+                acc = 0.0
+                for t in range(taps):
+                    acc += wxk[q, t] * row[ixk[q, t]]
+                o[q] = acc
 
 
 _kernel = compiled(_resample_rows)
