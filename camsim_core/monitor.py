@@ -153,7 +153,7 @@ class Monitor:
         unsure = np.empty(rows.shape[0] * 3, np.int64)
         kernel = _render_kernel3() if rows.shape[1] == 3 else _render_kernel()
         count = kernel(np.ascontiguousarray(rows), np.ascontiguousarray(matrix, dtype), dtype.type(scale),
-                                 np.array([0, 1], dtype), lo, hi, _BUCKETS, out, unsure)
+                       np.array([0, 1], dtype), lo, hi, _BUCKETS, out, unsure)
         if count:
             flat, unsure = out.reshape(-1), unsure[:count]
             x, c = flat[unsure].astype(np.float64), unsure % 3  # the linear values, left there by the kernel
@@ -205,7 +205,7 @@ def _render_rows(rows, m, scale, limits, lo, hi, buckets, out, unsure):
     """
     k = rows.shape[1]
     count = 0
-    top = limits[1] * buckets  # the bucket count in the rows' dtype (a power of 2: the product is exact)
+    top = limits[1] * buckets  # the bucket count as a float (a power of 2: w * top is exact, as w * buckets was)
     stride = buckets + 1
     for i in range(rows.shape[0]):
         for c in range(3):
