@@ -23,10 +23,10 @@ def map_pixels(fn, *arrays, chunk=CHUNK_PIXELS):
 
     ``fn`` takes and returns per-pixel rows: (n, C) -> (n, C') or (n,).
     The result has the arrays' leading shape and ``fn``'s trailing one and
-    dtype (as ``fn`` returns for the first chunk). An image of at most one
-    chunk is a single call of ``fn`` on the whole; the chunks of a larger one
-    after the first run on the machine's cores (``fn`` must be a pure
-    function of its chunks), with the same numbers as in turn.
+    dtype (as ``fn`` returns for one row). An image of at most one chunk is
+    a single call of ``fn`` on the whole; the chunks of a larger one run on
+    the machine's cores (``fn`` must be a pure function of its chunks), with
+    the same numbers as in turn.
     """
     lead = arrays[0].shape[:-1]
     flats = [np.asarray(a).reshape(-1, a.shape[-1]) for a in arrays]
@@ -34,15 +34,16 @@ def map_pixels(fn, *arrays, chunk=CHUNK_PIXELS):
     if n <= chunk:
         first = fn(*flats)
         return first.reshape(lead + first.shape[1:])
-    first = fn(*(f[:chunk] for f in flats))
-    out = np.empty((n,) + first.shape[1:], first.dtype)
-    out[:chunk] = first
+    # the output's trailing shape and dtype from one row (thrown away), so that every chunk, the first too,
+    # can run on the machine's cores; the chunks are the same as in turn, and so are the numbers
+    probe = fn(*(f[:1] for f in flats))
+    out = np.empty((n,) + probe.shape[1:], probe.dtype)
 
     def chunks(a, b):
         for start in range(a * chunk, min(b * chunk, n), chunk):
             out[start : start + chunk] = fn(*(f[start : start + chunk] for f in flats))
 
-    # the other chunks on the machine's cores (numpy's ufuncs release the GIL; each chunk is written alone)
+    # numpy's ufuncs and the compiled kernels release the GIL; each chunk is written alone
     count = -(-n // chunk)
-    run_blocks(chunks, split(count - 1, CORES) + 1, values=out.size)
+    run_blocks(chunks, split(count, CORES), values=out.size)
     return out.reshape(lead + out.shape[1:])

@@ -107,7 +107,8 @@ def test_bilinear_demosaic_by_class_on_two_cores_equals_one_core(big_raw, monkey
 
 
 def test_per_pixel_chunks_on_two_cores_equal_one_core(monkeypatch):
-    """dE of two 1200 x 1200 XYZ images: six chunks of pixels, the first here and the rest on the pool."""
+    """dE of two 1200 x 1200 XYZ images: six chunks of pixels, all of them on the pool (one row first gives the
+    output's shape and dtype)."""
     from camsim_core.metrics import delta_e
 
     rng = np.random.default_rng(5)
@@ -191,3 +192,28 @@ def test_scielab_bands_on_two_cores_equal_one_core(monkeypatch):
         one = on_cores(monkeypatch, 1, fn)
         monkeypatch.setattr(s_cielab, "CORES", 2)
         np.testing.assert_array_equal(one, two)
+
+
+def test_map_pixels_runs_every_chunk_on_the_pool_and_probes_one_row_here(monkeypatch):
+    """A large image's chunks all run on the pool, the first too; the call's own thread computes only one
+    row, to learn the output's shape and dtype. The numbers are those of one call on the whole."""
+    import threading
+
+    from camsim_core import _chunks
+
+    monkeypatch.setattr(parallel, "CORES", 2)
+    monkeypatch.setattr(_chunks, "CORES", 2)
+    calls = []
+    here = threading.current_thread().name
+
+    def halve(rows):
+        calls.append((rows.shape[0], threading.current_thread().name))
+        return rows[:, :2] * 0.5
+
+    x = np.random.default_rng(12).uniform(0, 1, (1000, 1100, 3))
+    out = _chunks.map_pixels(halve, x, chunk=200_000)
+    np.testing.assert_array_equal(out, x[:, :, :2] * 0.5)
+    assert calls[0] == (1, here)
+    chunks = calls[1:]
+    assert sorted(n for n, _ in chunks) == sorted([200_000] * 5 + [100_000])
+    assert all(name.startswith("camsim-block") for _, name in chunks)
