@@ -259,15 +259,20 @@ class Pipeline:
         cam = ideal.ideal_camera(camera)
         image = image_from_scene(scene)
         for i, stage in enumerate(cam.architecture):
-            parts = getattr(stage, "prepare", None) if i == 0 else None
-            if parts is None:
-                image = stage(cam, image)
-                continue
-            first, first_uses, finish = parts
-            key = (self._memo["scene"][1], fingerprint(stage), _camera_key(cam, first_uses))
-            source = image
-            image = finish(cam, self._kept("ideal:prepare", key, lambda: first(cam, source)), reuse=False)
+            # only the first stage's input is known by a token (the scene's): the later ones are not kept
+            image = self._apply(stage, cam, image, self._memo["scene"][1], "ideal:prepare") if i == 0 else stage(cam, image)
         return ideal.render_ideal(image, monitor, name=f"ideal {scene.name}")
+
+    def _apply(self, stage, camera, source, source_token, kept_name):
+        """``stage(camera, source)``; for a stage in two parts (:func:`camsim_core.simulation._stage.stage`),
+        its first part kept under ``kept_name`` while ``source`` (known by ``source_token``) and the fields
+        that part reads stay the same, and the second part run on it (the same numbers)."""
+        parts = getattr(stage, "prepare", None)
+        if parts is None:
+            return stage(camera, source)
+        first, first_uses, finish = parts
+        key = (source_token, fingerprint(stage), _camera_key(camera, first_uses))
+        return finish(camera, self._kept(kept_name, key, lambda: first(camera, source)), reuse=False)
 
     def _step(self, name, key, compute, result):
         """The cached output of ``name`` for ``key``, or compute, time and remember it.
@@ -356,18 +361,11 @@ class Pipeline:
             fields = _all_fields(camera) if uses is None else uses
             key = (token, fingerprint(stage), _camera_key(camera, fields))
             name = getattr(stage, "__name__", repr(stage))
-            parts = getattr(stage, "prepare", None)
             upstream, upstream_token = image, token
 
-            def compute(stage=stage, upstream=upstream, upstream_token=upstream_token, parts=parts, name=name):
+            def compute(stage=stage, upstream=upstream, upstream_token=upstream_token, name=name):
                 source = image_from_scene(scene) if upstream is None else upstream
-                if parts is None:
-                    return stage(camera, source)
-                # a stage in two parts: its first part kept while the fields it reads stay the same
-                first, first_uses, finish = parts
-                first_key = (upstream_token, fingerprint(stage), _camera_key(camera, first_uses))
-                prepared = self._kept(f"stage:{name}:prepare", first_key, lambda: first(camera, source))
-                return finish(camera, prepared, reuse=False)
+                return self._apply(stage, camera, source, upstream_token, f"stage:{name}:prepare")
 
             token, image = self._step(f"stage:{name}", key, compute, result)
             if token is None:

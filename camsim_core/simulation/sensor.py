@@ -38,29 +38,36 @@ def quantal_gain(camera):
 
 def sensor_weights(camera, wavelengths):
     """(N, K) weights that take the N planes to K sensor responses, gain included; and the gain."""
-    t, gain = _unit_weights(camera, wavelengths)
-    return np.ascontiguousarray(t * gain), gain
+    gain = _gain(camera)
+    return np.ascontiguousarray(_unit_weights(camera, wavelengths) * gain), gain
+
+
+def _gain(camera):
+    """What takes sums of the unit weights (:func:`_unit_weights`) to digital units: :func:`quantal_gain`
+    for "Quanta" sensitivities, :func:`exposure_gain` otherwise."""
+    return quantal_gain(camera) if camera.sensors.unit == "Quanta" else exposure_gain(camera)
 
 
 def _unit_weights(camera, wavelengths):
-    """(N, K) weights at unit gain (for "Quanta" sensitivities times lambda / hc, photons per joule), and the
-    gain that takes their sums to digital units (:func:`quantal_gain` or :func:`exposure_gain`)."""
+    """(N, K) weights at unit gain: the sensitivities on ``wavelengths`` (for "Quanta" ones times lambda / hc,
+    photons per joule). These are also the sensitivities rendering inverts (Eq. 1.4)."""
     w = np.asarray(wavelengths, float)
     check_overlap(camera.sensors.wavelengths, w, f"sensitivities of {camera.name or 'the camera'}")
     t = camera.sensors.on(w)
     if camera.sensors.unit == "Quanta":
-        return np.ascontiguousarray((t * (w * 1e-9 / (PLANCK * LIGHT_SPEED))[None, :]).T), quantal_gain(camera)
-    return np.ascontiguousarray(t.T), exposure_gain(camera)
+        t = t * (w * 1e-9 / (PLANCK * LIGHT_SPEED))[None, :]
+    return np.ascontiguousarray(t.T)
 
 
 def _weighted_planes(camera, image):
-    """The sensor stage's first part: the weighted sums of the planes at unit gain.
+    """The sensor stage's first part: ``(image, sums, weights)``, the weighted sums of the planes at unit gain
+    and the weights (:func:`_unit_weights`).
 
     Reads the camera's ``sensors`` only, so a cache keeps it while exposure
     and f-stop move (:func:`sensor_responses`, ``prepare``)."""
     data = _spectral_data(image)
-    weights, _ = _unit_weights(camera, image.wavelengths)
-    return image, weighted_sum(data, weights)
+    weights = _unit_weights(camera, image.wavelengths)
+    return image, weighted_sum(data, weights), weights
 
 
 def _spectral_data(image):
@@ -74,13 +81,13 @@ def _spectral_data(image):
 def _scaled_responses(camera, prepared, *, reuse=False):
     """The sensor stage's second part: ``prepared`` (:func:`_weighted_planes`) times the exposure's gain,
     as the stage's output image. ``reuse``: the sums may be scaled in place (nothing else holds them)."""
-    image, sums = prepared
-    _, gain = _unit_weights(camera, image.wavelengths)
+    image, sums, weights = prepared
+    gain = _gain(camera)
     if reuse:
         sums *= sums.dtype.type(gain)
     else:
         sums = sums * sums.dtype.type(gain)
-    return _response_image(camera, image, sums, gain)
+    return _response_image(camera, image, sums, gain, weights)
 
 
 @stage("sensors", "exposure", "f_stop", "cal_exposure", "cal_f_stop", "pixel_size", "electrons_per_dn", "fill_factor",
@@ -124,23 +131,18 @@ def respond(camera, image, combine):
     is set here, once.
     """
     data = _spectral_data(image)
-    weights, gain = sensor_weights(camera, image.wavelengths)
-    return _response_image(camera, image, combine(data, weights), gain)
+    unit, gain = _unit_weights(camera, image.wavelengths), _gain(camera)
+    return _response_image(camera, image, combine(data, np.ascontiguousarray(unit * gain)), gain, unit)
 
 
-def _response_image(camera, image, data, gain):
+def _response_image(camera, image, data, gain, unit_weights):
     """The sensor stage's output image: ``data`` (H, W, K) with the gain, units and the sensitivities
-    rendering inverts (Eq. 1.4)."""
-    # the sensitivities the responses were made with, per unit radiance (for quantal sensors the quantum
-    # efficiency times lambda / hc, photons per joule): rendering inverts them (Eq. 1.4), so they must carry
-    # the same units as the responses divided by the gain
-    sensitivities = camera.sensors.on(image.wavelengths)  # cached by Sensors.on
-    if camera.sensors.unit == "Quanta":
-        sensitivities = _unit_weights(camera, image.wavelengths)[0].T
+    rendering inverts (Eq. 1.4): the (N, K) ``unit_weights`` (:func:`_unit_weights`), per unit radiance, the
+    same units as the responses divided by the gain."""
     return image.then(
         "sensor_responses",
         data=data,
-        sensitivities=sensitivities,
+        sensitivities=unit_weights.T,
         sensor_names=camera.sensors.names,
         exposure=camera.exposure,
         f_stop=camera.f_stop,
