@@ -356,6 +356,37 @@ def test_freeman_median_equals_scipy(shape, size, dtype):
     np.testing.assert_array_equal(median_filter(x, size), ndimage.median_filter(x, size=size, mode="mirror"))
 
 
+def test_unrolled_median_module_is_the_generators_output():
+    """``_median_unrolled.py`` is generated: the committed text is what the generator writes today."""
+    from pathlib import Path
+
+    from camsim_core.demosaicing import _median
+
+    path = Path(_median.__file__).with_name("_median_unrolled.py")
+    assert path.read_text() == _median.unrolled_source(), "regenerate _median_unrolled.py from unrolled_source()"
+
+
+@pytest.mark.parametrize("size", [3, 5])
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_unrolled_median_equals_the_row_network(size, dtype):
+    """The straight-line kernel and the row-buffer kernel run the same comparators: the same values,
+    with NaNs and infinities too (where scipy's median, which sorts differently, is no reference)."""
+    from camsim_core.demosaicing import _median
+
+    x = np.random.default_rng(12).standard_normal((37, 203)).astype(dtype)
+    x[::5, ::7] = np.nan
+    x[3::11, 2::13] = np.inf
+    x[4::9, ::17] = -np.inf
+    x[::2] = np.round(x[::2], 1)  # ties
+    x[20:27, 100:110] = np.inf  # a clump whose medians are infinite
+    padded = np.pad(x, size // 2, mode="reflect")
+    unrolled, rows = np.full_like(x, 7.0), np.full_like(x, 7.0)
+    _median._unrolled_kernel(size)(padded, unrolled)
+    _median._kernel()(padded, size, _median.median_network(size * size), rows)
+    assert np.isnan(rows).any() and np.isinf(rows).any()
+    np.testing.assert_array_equal(unrolled, rows)
+
+
 @pytest.mark.parametrize("tile", [
     BAYER["GRBG"][:, :, None],
     np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])[:, :, None],
