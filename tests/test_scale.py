@@ -417,6 +417,49 @@ def test_freeman_by_bands_equals_whole_planes(tile, shape, size, dtype, band_pix
     np.testing.assert_array_equal(out, expected)
 
 
+@pytest.mark.parametrize("tile, window", [
+    (BAYER["GRBG"], None),  # 7 x 7 window: 49 taps, whole groups of seven
+    (BAYER["RGGB"], 5),  # 25 taps: padded to 28
+    (np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]]), None),  # 9 x 9 window: 81 taps, padded to 84
+    (np.stack([BAYER["RGGB"], BAYER["RGGB"][::-1]], axis=2), None),  # tiered
+])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_bayesian_three_sensor_kernel_equals_the_generic_one(tile, window, dtype, monkeypatch):
+    """The kernel for three sensors (taps seven at a time) adds the same products in the same order
+    as the generic one (a tap and a sensor at a time): the same values, bit for bit."""
+    from camsim_core.demosaicing import bayesian
+
+    shape = (45, 62) + ((tile.shape[2],) if tile.ndim == 3 else ())
+    data = np.random.default_rng(13).uniform(0, 255, shape).astype(dtype)
+    raw = cs.raw_from_array(data, tile)
+    raw = raw.replace(data=np.asarray(raw.data).astype(dtype), noise_sigma=2.0)
+    three = bayesian.demosaic_bayesian(raw, window=window)
+    monkeypatch.setattr(bayesian, "_filter_kernel3", bayesian._filter_kernel)
+    generic = bayesian.demosaic_bayesian(raw, window=window)
+    assert three.dtype == dtype and np.isfinite(three).all()
+    np.testing.assert_array_equal(three, generic)
+
+
+def test_take_grid_equals_fancy_indexing():
+    """Phase planes by slicing the evenly spaced middle equal ``src[np.ix_(rows, cols)]``, for the padded
+    phase indices Bayesian demosaicing uses and for index arrays with no even middle."""
+    from camsim_core.demosaicing._masks import phase_pad_index
+    from camsim_core.demosaicing.bayesian import _take_grid
+
+    rng = np.random.default_rng(14)
+    src = rng.random((31, 40)).astype(np.float32)
+    cases = []
+    for n, m, half in ((2, 2, 3), (3, 3, 4), (2, 3, 2), (1, 1, 3)):
+        iy, ix = phase_pad_index(31, half, n), phase_pad_index(40, half, m)
+        cases += [(iy[q::n], ix[r::m]) for q in range(n) for r in range(m)]
+    cases += [(rng.integers(0, 31, 9), rng.integers(0, 40, 12)), (np.array([5]), np.array([7, 7, 7])),
+              (np.array([4, 2, 0]), np.arange(40)[::-3])]
+    for rows, cols in cases:
+        dst = np.full((rows.size, cols.size), -1.0, np.float32)
+        _take_grid(src, rows, cols, dst)
+        np.testing.assert_array_equal(dst, src[np.ix_(rows, cols)])
+
+
 def test_to_screen_block_means():
     from camsim_core.screen import to_screen
 
