@@ -113,3 +113,15 @@ def test_psnr_and_ssim_against_their_definitions(rng):
     assert ssim(img, ref, data_range=255) < ssim(ref + noise / 3, ref, data_range=255) < 1.0
     with pytest.raises(ParameterError, match="shape"):
         psnr(img[:10], ref)
+
+
+def test_psnr_of_identical_images_is_infinite_without_a_warning(rng):
+    """A design compared with itself (the explorer's A/B of one pinned design) gives PSNR inf, and
+    writes no divide-by-zero warning to the server's log."""
+    import warnings
+
+    ref = rng.uniform(0, 255, size=(16, 16, 3)).round()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert psnr(ref.copy(), ref, data_range=255) == np.inf
+        assert np.isfinite(psnr(ref + 1, ref, data_range=255))

@@ -29,10 +29,16 @@ def _pair(image, reference, data_range):
 
 
 def psnr(image, reference, *, data_range=None):
-    """Peak signal-to-noise ratio, dB: 10 log10(range^2 / MSE). Range: 2^bits - 1, else the reference's span."""
+    """Peak signal-to-noise ratio, dB: 10 log10(range^2 / MSE). Range: 2^bits - 1, else the reference's span.
+
+    Identical images give ``inf`` (no error at all), without the divide-by-zero
+    warning scikit-image would write to a server's log for it.
+    """
     from skimage.metrics import peak_signal_noise_ratio
 
     a, b, r = _pair(image, reference, data_range)
+    if np.array_equal(a, b):
+        return float("inf")
     return float(peak_signal_noise_ratio(b, a, data_range=r))
 
 
