@@ -293,8 +293,9 @@ def apply_filters(data, tile, filters, half, rows=32):
         plane[i, : f.shape[1]] = ((a % n) * m + c % m) * t_count + np.asarray(tier)
         ys[i, : f.shape[1]], xs[i, : f.shape[1]] = a // n, c // m
         pos[i] = py, px, len(range(py, h, n)), len(range(px, w, m))
-    kernel = _filter_kernel()
-    if k == 3:
+    if k != 3:
+        kernel = _filter_kernel()
+    else:
         # three sensors (every shipped camera): the kernel that takes the taps seven at a time into three sums
         # (the same sums in the same order); the taps padded to whole groups read tap 0's row with weight 0
         groups = -(-o_count // GROUP)
@@ -314,14 +315,10 @@ def _even_run(index):
     if index.size < 2:
         return 0, index.size, 1
     d = np.diff(index)
-    best, start = (0, 1), 0
-    for i in range(1, d.size + 1):
-        if i == d.size or d[i] != d[start]:
-            if i + 1 - start > best[1] - best[0]:
-                best = (start, i + 1)
-            start = i
-    a, b = best
-    return a, b, int(d[a]) if b - a > 1 else 1
+    starts = np.concatenate([[0], np.flatnonzero(d[1:] != d[:-1]) + 1])  # where each run of equal steps starts
+    ends = np.append(starts[1:], d.size)
+    j = int(np.argmax(ends - starts))  # the first of the longest
+    return int(starts[j]), int(ends[j]) + 1, int(d[starts[j]])
 
 
 def _take_grid(src, rows, cols, dst):
@@ -388,7 +385,8 @@ def _filter_rows3(planes, weights, bias, plane, ys, xs, pos, n, m, out, r0, r1):
     one loop for the three sums (eleven arrays) did not. Each sum is
     accumulated in the generic kernel's order, so the values are its values;
     a weight of 0 adds a signed zero where the generic kernel skips the tap
-    (it can only turn a sum of -0.0 into 0.0). Written out by hand, with
+    (it can only turn a sum of -0.0 into 0.0, or, on a raw holding inf or
+    NaN, which no camera writes, make a sum NaN). Written out by hand, with
     numba: the group size must be fixed for the taps to be one expression.
     Filtering a 12-megapixel Bayer raw (with its phase planes): median
     175 -> 119 ms, interleaved.
