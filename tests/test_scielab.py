@@ -293,3 +293,32 @@ def test_opponent_channels_are_filtered_apart():
     out = filter_opponent(opp, 37.0)
     assert np.isnan(out[..., 0]).all()
     np.testing.assert_array_equal(out[..., 1:], clean[..., 1:])
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("shape", [(600, 310), (41, 29)])
+def test_filtered_lab_is_the_lab_of_the_filtered_image_bit_for_bit(dtype, shape):
+    """filtered_lab goes from each band's filtered channels straight to L*a*b*; its numbers are those of
+    the two public steps done apart (scielab_filter, then xyz_to_lab), to the last bit, in either dtype,
+    over several bands (600 rows) and where the kernel reaches past the mirror (41 x 29)."""
+    from camsim_core.metrics import filtered_lab, scielab_filter, xyz_to_lab
+
+    rng = np.random.default_rng(11)
+    xyz = rng.uniform(0.5, 90.0, size=shape + (3,)).astype(dtype)
+    xyz[3, 4] = 0.0  # L* on the linear segment of the CIE function
+    lab = filtered_lab(xyz, 102.6, WHITE)
+    assert lab.dtype == dtype
+    np.testing.assert_array_equal(lab, xyz_to_lab(scielab_filter(xyz, 102.6), WHITE))
+
+
+@pytest.mark.parametrize("method", ["CIE 1976", "CIE 2000"])
+def test_scielab_is_the_difference_of_the_two_filtered_labs(method):
+    """scielab (two images band by band) equals delta_e_lab of the two filtered_lab images: the band
+    buffers of one image never leak into the other's, also for a float32 image against a float64 one."""
+    from camsim_core.metrics import delta_e_lab, filtered_lab
+
+    rng = np.random.default_rng(12)
+    a = rng.uniform(0.5, 90.0, size=(530, 200, 3)).astype(np.float32)
+    b = rng.uniform(0.5, 90.0, size=(530, 200, 3))
+    expected = delta_e_lab(filtered_lab(a, 80.0, WHITE), filtered_lab(b, 80.0, WHITE), method)
+    np.testing.assert_array_equal(scielab(a, b, 80.0, WHITE, method=method), expected)

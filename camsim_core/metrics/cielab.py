@@ -154,9 +154,16 @@ def _xyz_to_lab(xyz, white):
     rows = np.ascontiguousarray(xyz, dtype).reshape(-1, 3)
     f = np.empty_like(rows)
     _ratio_kernel()(rows, np.asarray(white, float).astype(dtype), f)
-    roots = np.cbrt(f)
-    _lab_kernel()(f, roots, np.array([(24 / 116) ** 3], dtype), roots)
-    return roots.reshape(xyz.shape)
+    roots = np.empty_like(rows)
+    return _lab_of_ratios(f, roots, roots).reshape(xyz.shape)
+
+
+def _lab_of_ratios(f, roots, out):
+    """L*a*b* (n, 3) into ``out`` of pixels' ratios to the white ``f`` (n, 3): their cube roots (numpy's,
+    vectorized) into ``roots``, then :func:`_lab_rows`; ``out`` may be ``roots``. Returns ``out``."""
+    np.cbrt(f, out=roots)
+    _lab_kernel()(f, roots, np.array([(24 / 116) ** 3], f.dtype), out)
+    return out
 
 
 def _ratio_rows(xyz, white, out):

@@ -67,6 +67,7 @@ from __future__ import annotations
 
 import functools
 import math
+import threading
 
 import numpy as np
 import scipy.fft
@@ -75,7 +76,7 @@ from .._chunks import map_pixels
 from .._compiled import compiled
 from .._parallel import CORES, PARALLEL_VALUES, run_blocks, split
 from ..errors import ParameterError
-from .cielab import _delta_e_map, _method, _xyz_to_lab, check_white, check_xyz, rendered_pair
+from .cielab import _lab_of_ratios, _method, check_white, check_xyz, delta_e_lab, rendered_pair
 
 __all__ = [
     "XYZ_TO_OPPONENT",
@@ -305,7 +306,7 @@ def _band_groups(shape):
 
 
 def _filter_image_rows(image, spd, write, **kw):
-    """``write(i0, i1, band)`` for every band of :func:`_filtered_bands`, groups of bands on the machine's
+    """``write(i0, i1, band)`` for every band (:class:`_Band`) of :func:`_filtered_bands`, groups of bands on the machine's
     cores (:func:`_band_groups`; each group's transforms on one thread). ``write`` must touch only rows
     i0..i1 of its output, and must not wait on the block pool (it runs on it)."""
     groups = _band_groups(image.shape[:2])
@@ -318,12 +319,13 @@ def _filter_image_rows(image, spd, write, **kw):
     run_blocks(group, groups, values=image.size)
 
 
-def _filtered_bands(image, spd, *, opponent_in=False, opponent_out=False, to_xyz=None, rows=None, split_transforms=True):
-    """Yield ``(i0, i1, band)``: output rows i0..i1 of the S-CIELAB filtered image (H, W, 3), band by band.
+def _filtered_bands(image, spd, *, opponent_in=False, to_xyz=None, rows=None, split_transforms=True):
+    """Yield ``(i0, i1, band)``: output rows i0..i1 of the S-CIELAB filtered image, band by band.
 
     ``image`` (H, W, 3) is XYZ (or opponent channels with ``opponent_in``,
-    or values that ``to_xyz`` takes, by rows (n, 3), to XYZ); each band
-    comes back as XYZ (or opponent channels with ``opponent_out``). For a band of output rows, the rows its kernels reach
+    or values that ``to_xyz`` takes, by rows (n, 3), to XYZ); each band is a
+    :class:`_Band`, the three filtered opponent channels, which its caller
+    takes straight to what it needs (XYZ or opponent pixels, L*a*b*). For a band of output rows, the rows its kernels reach
     (its own plus ``cy`` above and below, of the image mirrored by ``py``,
     ``px``, :func:`_plan`, zero beyond) are taken to opponent space, and
     each channel is one zero-padded FFT product with its kernel's spectrum,
@@ -351,13 +353,11 @@ def _filtered_bands(image, spd, *, opponent_in=False, opponent_out=False, to_xyz
     fx = scipy.fft.next_fast_len(W + 2 * px + 2 * a, real=True)
     spectra = _band_spectra(spd, cy, cx, fy, fx, dt.type)
     source_row = np.pad(np.arange(H), py, mode="symmetric")  # the image row of each mirrored row
-    to_opp, from_opp = XYZ_TO_OPPONENT.astype(dt), OPPONENT_TO_XYZ.astype(dt)  # unused by opponent_in / _out
+    to_opp = XYZ_TO_OPPONENT.astype(dt)  # unused by opponent_in
     # one set of band buffers for the whole image: a band handed out is valid until the next is asked for;
     # the opponent planes are written (columns mirrored) into zero-padded transform inputs
     planes = np.zeros((3, fy, fx), dt)
-    filtered = np.empty((3, band, W), dt)
-    back = np.empty((band, W, 3), dt)
-    to_planes, from_planes = _opponent_kernel(), _back_kernel()
+    to_planes = _opponent_kernel()
     # transforms of half a megapixel or more on the machine's cores; smaller ones lose more to the threads
     # than they gain (the default scene's: +15 %; a 4000-wide image's: -15 to -30 %)
     workers = CORES if split_transforms and fy * fx >= TRANSFORM_PIXELS_ON_CORES else 1
@@ -378,15 +378,54 @@ def _filtered_bands(image, spd, *, opponent_in=False, opponent_out=False, to_xyz
         planes[:, s1 - lo :] = 0
         to_planes(np.ascontiguousarray(rows), to_opp, planes, s0 - lo, a, px, not opponent_in)
         del rows
+        # one zero-padded FFT product per channel (the numbers of the whole image's transform); the valid
+        # part of each is read where it lies (rows from 2 cy, columns from a + px + cx), not copied out
+        filtered = []
         for ch in range(3):
-            # one zero-padded FFT product per channel (the numbers of the whole image's transform)
             f = scipy.fft.rfft2(planes[ch], workers=workers)
             f *= spectra[ch]
-            full = scipy.fft.irfft2(f, s=(fy, fx), overwrite_x=True, workers=workers)
-            filtered[ch, : i1 - i0] = full[2 * cy : 2 * cy + (i1 - i0), a + px + cx : a + px + cx + W]
-            del f, full
-        from_planes(filtered, i1 - i0, from_opp, back, not opponent_out)
-        yield i0, i1, back[: i1 - i0]
+            filtered.append(scipy.fft.irfft2(f, s=(fy, fx), overwrite_x=True, workers=workers))
+            del f
+        yield i0, i1, _Band(tuple(filtered), 2 * cy, a + px + cx, i1 - i0, W)
+        del filtered
+
+
+class _Band:
+    """Output rows of the filtered image: the three filtered opponent channels ``planes`` (each a C-ordered
+    (fy, fx) transform output) hold them at rows ``row``.. and columns ``col``.. (``rows`` x ``cols``).
+
+    Its methods take the band straight to pixels or to L*a*b* in one compiled pass each (no copy of the
+    valid part, no full-size XYZ): numpy's per-channel products and the separate XYZ, ratio and copy passes
+    were a fifth of a filtered L*a*b* on a megapixel image.
+    """
+
+    __slots__ = ("planes", "row", "col", "rows", "cols")
+
+    def __init__(self, planes, row, col, rows, cols):
+        self.planes, self.row, self.col, self.rows, self.cols = planes, row, col, rows, cols
+
+    def to_pixels(self, out, *, convert=True):
+        """Write the band into ``out`` (rows, cols, 3): XYZ (``OPPONENT_TO_XYZ`` applied), or the opponent
+        channels themselves when not ``convert``."""
+        f0, f1, f2 = self.planes
+        _back_kernel()(f0, f1, f2, self.row, self.col, OPPONENT_TO_XYZ.astype(out.dtype), out, convert)
+
+    def to_lab(self, white, out, scratch):
+        """Write the band's L*a*b* under ``white`` (3,) into ``out`` (rows, cols, 3), the numbers of
+        :func:`.cielab._xyz_to_lab` of its XYZ; ``scratch``: two arrays of ``out``'s shape and dtype."""
+        f0, f1, f2 = self.planes
+        ratios, roots = scratch
+        dt = out.dtype
+        _ratio_planes_kernel()(f0, f1, f2, self.row, self.col, OPPONENT_TO_XYZ.astype(dt),
+                               np.asarray(white, float).astype(dt), ratios)
+        _lab_of_ratios(ratios.reshape(-1, 3), roots.reshape(-1, 3), out.reshape(-1, 3))
+
+
+def _band_scratch(image, spd):
+    """Two buffers (band rows, W, 3) in ``image``'s dtype for :meth:`_Band.to_lab`, made once per image."""
+    H, W = image.shape[:2]
+    band = min(H, _band_rows((H, W)))
+    return np.empty((band, W, 3), image.dtype), np.empty((band, W, 3), image.dtype)
 
 
 def _opponent_rows(rows, m, planes, r0, c0, px, convert):
@@ -396,36 +435,39 @@ def _opponent_rows(rows, m, planes, r0, c0, px, convert):
 
     Compiled by numba (:func:`_opponent_kernel`): numpy took a strided
     product per channel and a padded copy of each plane (a third of the
-    filter's time on a megapixel image); this is one pass.
+    filter's time on a megapixel image); this is one pass. The image's own
+    columns are written by a loop without a branch (it vectorizes), the
+    mirrored margins then copied from them (a quarter less time than one
+    loop finding each column's source).
     """
     h, W = rows.shape[0], rows.shape[1]
     for i in range(h):
         r = r0 + i
-        for x in range(W + 2 * px):
-            s = x - px
-            if s < 0:
-                s = -s - 1
-            elif s >= W:
-                s = 2 * W - 1 - s
-            a, b, c = rows[i, s, 0], rows[i, s, 1], rows[i, s, 2]
-            if convert:
-                planes[0, r, c0 + x] = m[0, 0] * a + m[0, 1] * b + m[0, 2] * c
-                planes[1, r, c0 + x] = m[1, 0] * a + m[1, 1] * b + m[1, 2] * c
-                planes[2, r, c0 + x] = m[2, 0] * a + m[2, 1] * b + m[2, 2] * c
-            else:
-                planes[0, r, c0 + x] = a
-                planes[1, r, c0 + x] = b
-                planes[2, r, c0 + x] = c
+        if convert:
+            for x in range(W):
+                a, b, c = rows[i, x, 0], rows[i, x, 1], rows[i, x, 2]
+                planes[0, r, c0 + px + x] = m[0, 0] * a + m[0, 1] * b + m[0, 2] * c
+                planes[1, r, c0 + px + x] = m[1, 0] * a + m[1, 1] * b + m[1, 2] * c
+                planes[2, r, c0 + px + x] = m[2, 0] * a + m[2, 1] * b + m[2, 2] * c
+        else:
+            for x in range(W):
+                planes[0, r, c0 + px + x] = rows[i, x, 0]
+                planes[1, r, c0 + px + x] = rows[i, x, 1]
+                planes[2, r, c0 + px + x] = rows[i, x, 2]
+        for k in range(px):
+            for ch in range(3):
+                planes[ch, r, c0 + px - 1 - k] = planes[ch, r, c0 + px + k]
+                planes[ch, r, c0 + px + W + k] = planes[ch, r, c0 + px + W - 1 - k]
 
 
-def _back_rows(filtered, h, m, out, convert):
-    """``out[i, x] = m @ filtered[:, i, x]`` for the first ``h`` rows (the values themselves when not
-    ``convert``): filtered opponent planes (3, rows, W) back to pixels (XYZ). Compiled by numba
-    (:func:`_back_kernel`), one pass for numpy's strided product."""
-    W = filtered.shape[2]
-    for i in range(h):
-        for x in range(W):
-            a, b, c = filtered[0, i, x], filtered[1, i, x], filtered[2, i, x]
+def _back_rows(f0, f1, f2, r0, c0, m, out, convert):
+    """``out[i, x] = m @ (f0, f1, f2)[r0 + i, c0 + x]`` for ``out``'s (h, W) pixels (the values themselves
+    when not ``convert``): filtered opponent channels, read where the transforms left them, back to pixels
+    (XYZ). Compiled by numba (:func:`_back_kernel`), one pass for numpy's strided product."""
+    for i in range(out.shape[0]):
+        r = r0 + i
+        for x in range(out.shape[1]):
+            a, b, c = f0[r, c0 + x], f1[r, c0 + x], f2[r, c0 + x]
             if convert:
                 out[i, x, 0] = m[0, 0] * a + m[0, 1] * b + m[0, 2] * c
                 out[i, x, 1] = m[1, 0] * a + m[1, 1] * b + m[1, 2] * c
@@ -436,16 +478,34 @@ def _back_rows(filtered, h, m, out, convert):
                 out[i, x, 2] = c
 
 
+def _ratio_planes(f0, f1, f2, r0, c0, m, white, out):
+    """``out[i, x, k] = (m @ (f0, f1, f2)[r0 + i, c0 + x])[k] / white[k]``: filtered opponent channels to XYZ
+    and their ratios to the white, the first step of L*a*b*, in one pass with the numbers of
+    :func:`_back_rows` followed by :func:`.cielab._ratio_rows`. Compiled by numba (:func:`_ratio_planes_kernel`)."""
+    for i in range(out.shape[0]):
+        r = r0 + i
+        for x in range(out.shape[1]):
+            a, b, c = f0[r, c0 + x], f1[r, c0 + x], f2[r, c0 + x]
+            X = m[0, 0] * a + m[0, 1] * b + m[0, 2] * c
+            Y = m[1, 0] * a + m[1, 1] * b + m[1, 2] * c
+            Z = m[2, 0] * a + m[2, 1] * b + m[2, 2] * c
+            out[i, x, 0] = X / white[0]
+            out[i, x, 1] = Y / white[1]
+            out[i, x, 2] = Z / white[2]
+
+
 _opponent_kernel = compiled(_opponent_rows)
 _back_kernel = compiled(_back_rows)
+_ratio_planes_kernel = compiled(_ratio_planes)
 
 
-def _filter_image(image, spd, **kw):
-    """The whole filtered image (H, W, 3) of :func:`_filtered_bands`, written band by band."""
+def _filter_image(image, spd, *, opponent_out=False, **kw):
+    """The whole filtered image (H, W, 3) of :func:`_filtered_bands`, written band by band: XYZ, or the
+    opponent channels with ``opponent_out``."""
     out = np.empty(image.shape, image.dtype)
 
     def write(i0, i1, band):
-        out[i0:i1] = band
+        band.to_pixels(out[i0:i1], convert=not opponent_out)
 
     _filter_image_rows(image, spd, write, **kw)
     return out
@@ -499,12 +559,23 @@ def filtered_lab(xyz, samples_per_degree, white):
     a = check_xyz(xyz, "xyz")
     if a.ndim != 3:
         raise ParameterError("xyz", f"must be an (H, W, 3) image, got shape {a.shape}")
-    out = np.empty(a.shape, a.dtype)
+    return _filtered_lab(a, spd, w)
+
+
+def _filtered_lab(xyz, spd, white):
+    """:func:`filtered_lab` of a checked XYZ image (H, W, 3) under a checked white: each band goes from its
+    filtered channels to L*a*b* in the output (:meth:`_Band.to_lab`); one pair of band buffers per group
+    of bands (each group on its own core)."""
+    out = np.empty(xyz.shape, xyz.dtype)
+    scratch = {}  # per thread (a group of bands runs on one)
 
     def write(i0, i1, band):
-        out[i0:i1] = _xyz_to_lab(band, w)
+        mine = scratch.get(threading.get_ident())
+        if mine is None:
+            mine = scratch[threading.get_ident()] = _band_scratch(xyz, spd)
+        band.to_lab(white, out[i0:i1], (mine[0][: i1 - i0], mine[1][: i1 - i0]))
 
-    _filter_image_rows(a, spd, write)
+    _filter_image_rows(xyz, spd, write)
     return out
 
 
@@ -543,8 +614,14 @@ def scielab(xyz1, xyz2, samples_per_degree, white, *, method="CIE 1976", monitor
     # both images band by band: the filtered bands of each go to Lab and their difference at once, so
     # neither filtered image exists at full size
     out = None
+    # per image (the two may differ in dtype): a band's L*a*b* and the two buffers that make it
+    (lab_a, _), (lab_b, _) = _band_scratch(a, spd), _band_scratch(b, spd)
+    scratch_a, scratch_b = _band_scratch(a, spd), _band_scratch(b, spd)
     for (i0, i1, fa), (_, _, fb) in zip(_filtered_bands(a, spd, to_xyz=to_a), _filtered_bands(b, spd, to_xyz=to_b)):
-        d = _delta_e_map(fa, fb, w, method)
+        h = i1 - i0
+        fa.to_lab(w, lab_a[:h], (scratch_a[0][:h], scratch_a[1][:h]))
+        fb.to_lab(w, lab_b[:h], (scratch_b[0][:h], scratch_b[1][:h]))
+        d = delta_e_lab(lab_a[:h], lab_b[:h], method)
         if out is None:
             out = np.empty(a.shape[:2], d.dtype)
         out[i0:i1] = d
