@@ -431,10 +431,12 @@ class Pipeline:
             spd = result.samples_per_degree
 
             def scielab():
-                # metrics.scielab, with the ideal image's filtered L*a*b* kept between moves
-                xyz, ideal = metrics.cielab.check_pair(_data(result.xyz), _data(result.ideal_xyz))
+                # metrics.scielab, with the ideal image's filtered L*a*b* kept between moves; each image checked
+                # once (the ideal where its filtered L*a*b* is made, beside or here), not again by every step
+                xyz, ideal = metrics.cielab.check_pair(_data(result.xyz), _data(result.ideal_xyz), check_second=False)
                 ideal_lab = self._ideal_side(("scielab", t_ixyz, spd), lambda: metrics.filtered_lab(ideal, spd, white))
-                lab = early["scielab"][1] if early.get("scielab", (None,))[0] == spd else metrics.filtered_lab(xyz, spd, white)
+                lab = (early["scielab"][1] if early.get("scielab", (None,))[0] == spd
+                       else metrics.s_cielab._filtered_lab(xyz, spd, metrics.cielab.check_white(white)))
                 return metrics.delta_e_lab(lab, ideal_lab)
 
             _, result.scielab = self._step("scielab", (t_xyz, t_ixyz, spd), scielab, result)

@@ -181,3 +181,20 @@ def test_block_compare_bad_input():
         block_compare(a, a[:50], 10, WHITE, register_images=False)
     with pytest.raises(ParameterError, match="white"):
         block_compare(a, a, 10, [1.0, 0.0, 1.0], register_images=False)
+
+
+def test_a_pair_whose_second_image_is_checked_elsewhere_still_checks_the_first_and_the_shapes():
+    """check_pair(check_second=False), as the explorer's pipeline calls it (the ideal image is checked once,
+    where its L*a*b* is made): the first image's values and both shapes are still checked, by name."""
+    from camsim_core.metrics.cielab import check_pair
+
+    good, bad = np.ones((4, 5, 3)), np.ones((4, 5, 3))
+    bad[1, 2, 0] = np.nan
+    a, b = check_pair(good, bad, check_second=False)
+    assert b is bad or np.shares_memory(b, bad)
+    with pytest.raises(ParameterError, match="xyz2"):
+        check_pair(good, bad)
+    with pytest.raises(ParameterError, match="xyz1.*NaN"):
+        check_pair(bad, good, check_second=False)
+    with pytest.raises(ParameterError, match="xyz2.*same shape"):
+        check_pair(good, np.ones((4, 6, 3)), check_second=False)

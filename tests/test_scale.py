@@ -249,8 +249,8 @@ def test_pipeline_keeps_the_ideal_lab_and_still_gives_fresh_numbers(base, camera
     from camsim_core.metrics import s_cielab
 
     calls = []
-    real = s_cielab.filtered_lab
-    monkeypatch.setattr(metrics, "filtered_lab", lambda *a: calls.append(1) or real(*a))
+    real = s_cielab._filtered_lab  # what filtered_lab runs once it has checked its input, and what the pipeline calls
+    monkeypatch.setattr(s_cielab, "_filtered_lab", lambda *a: calls.append(1) or real(*a))
     p = Pipeline()
     p.run(base, camera, Processing())
     assert len(calls) == 2  # camera and ideal image

@@ -80,10 +80,14 @@ def check_xyz(xyz, name="xyz"):
     return a
 
 
-def check_pair(xyz1, xyz2):
-    """Two XYZ images of the same shape (float arrays); else :class:`ParameterError`."""
+def check_pair(xyz1, xyz2, *, check_second=True):
+    """Two XYZ images of the same shape (float arrays); else :class:`ParameterError`.
+
+    ``check_second=False``: the second image's values are checked by whoever uses them (a cache that
+    checks an image once, where it makes its L*a*b*), here only its shape.
+    """
     a = check_xyz(xyz1, "xyz1")
-    b = check_xyz(xyz2, "xyz2")
+    b = check_xyz(xyz2, "xyz2") if check_second else np.asarray(xyz2)
     if a.shape != b.shape:
         raise ParameterError("xyz2", f"the two images must have the same shape, got {a.shape} and {b.shape}")
     return a, b
