@@ -233,14 +233,16 @@ def child_explorer(repeats):
     from camsim_core.cache import Pipeline, Processing
 
     camera = cs.load_camera("kodak-dcs200-ir").replace(distance=3.32, exposure=0.1, f_stop=11.0, noise_sigma=0.0, seed=0)
+    # what the explorer computes with S-CIELAB shown: that map alone (processing_from_params)
+    scielab = Processing(metrics=("scielab",))
     out = {}
     for label, scene in (("default scene 182x290", cs.load_scene("cacaphony290")), ("1024x1024 scene", make_scene(1024))):
         shape = cs.simulate(scene, camera).data.shape
         for move, pair in (
             ("noise 0<->2, CIELAB", [(camera, Processing(metrics=("cielab",))), (camera.replace(noise_sigma=2.0), Processing(metrics=("cielab",)))]),
-            ("noise 0<->2, S-CIELAB", [(camera, Processing()), (camera.replace(noise_sigma=2.0), Processing())]),
+            ("noise 0<->2, S-CIELAB", [(camera, scielab), (camera.replace(noise_sigma=2.0), scielab)]),
             ("exposure 0.1<->0.12, CIELAB", [(camera, Processing(metrics=("cielab",))), (camera.replace(exposure=0.12), Processing(metrics=("cielab",)))]),
-            ("exposure 0.1<->0.12, S-CIELAB", [(camera, Processing()), (camera.replace(exposure=0.12), Processing())]),
+            ("exposure 0.1<->0.12, S-CIELAB", [(camera, scielab), (camera.replace(exposure=0.12), scielab)]),
         ):
             pipe = Pipeline()
             pipe.run(scene, *pair[0])

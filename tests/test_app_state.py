@@ -191,6 +191,20 @@ def test_sessions_share_nothing_but_read_only_data(tmp_path):
     assert a.pipeline is not b.pipeline
 
 
+def test_each_metric_makes_only_the_map_it_shows(state):
+    """S-CIELAB shown: its map is made and the hidden CIELAB map is not (on a megapixel image that was a
+    tenth of an exposure move); a move then re-makes only S-CIELAB; CIELAB again makes its own map."""
+    assert state.result.delta_e is not None and state.result.scielab is None
+    state.metric = "S-CIELAB"
+    assert state.result.scielab is not None and state.result.delta_e is None
+    assert state.result.ran_steps == ["scielab"]
+    state.exposure = state.exposure * 1.2
+    assert "scielab" in state.result.ran_steps and "delta_e" not in state.result.ran_steps
+    assert state.result.delta_e is None
+    state.metric = "CIELAB"
+    assert state.result.ran_steps == ["delta_e"] and state.result.delta_e is not None
+
+
 def test_viewing_is_a_state_parameter_that_sets_scielab_samples_per_degree(state):
     state.metric = "S-CIELAB"
     assert state.result.samples_per_degree == pytest.approx(102.6)  # the chapter's default

@@ -324,12 +324,15 @@ def camera_from_params(params, *, max_sensors=MAX_SENSORS, max_tile=MAX_TILE, ma
 def processing_from_params(params, metrics=None):
     """The :class:`~camsim_core.cache.Processing` of a design.
 
-    ``metrics`` defaults to what the design's ``metric`` shows (CIELAB only,
-    or CIELAB and S-CIELAB); comparisons pass ``("cielab", "scielab")``.
+    ``metrics`` defaults to the one map the design's ``metric`` shows (CIELAB
+    or S-CIELAB: the explorer makes only what it shows, so an S-CIELAB move on
+    a megapixel image does not also convert both images for a CIELAB map it
+    hides; switching back computes that map then); comparisons pass
+    ``("cielab", "scielab")``.
     """
     p = dict(DESIGN_DEFAULTS, **params)
     if metrics is None:
-        metrics = ("cielab",) if p["metric"] == "CIELAB" else ("cielab", "scielab")
+        metrics = ("cielab",) if p["metric"] == "CIELAB" else ("scielab",)
     return Processing(
         demosaic=p["demosaic_method"],
         render=p["render_method"],
