@@ -395,8 +395,9 @@ class _Band:
     (fy, fx) transform output) hold them at rows ``row``.. and columns ``col``.. (``rows`` x ``cols``).
 
     Its methods take the band straight to pixels or to L*a*b* in one compiled pass each (no copy of the
-    valid part, no full-size XYZ): numpy's per-channel products and the separate XYZ, ratio and copy passes
-    were a fifth of a filtered L*a*b* on a megapixel image.
+    valid part, no band of XYZ): numpy's per-channel products and the separate XYZ, ratio and copy passes
+    were a fifth of a filtered L*a*b* on a megapixel image. L*a*b* is made by blocks of rows
+    (:meth:`blocks`), so its temporaries stay in the CPU's cache and a few MiB at 12 megapixels.
     """
 
     __slots__ = ("planes", "row", "col", "rows", "cols")
@@ -410,22 +411,30 @@ class _Band:
         f0, f1, f2 = self.planes
         _back_kernel()(f0, f1, f2, self.row, self.col, OPPONENT_TO_XYZ.astype(out.dtype), out, convert)
 
-    def to_lab(self, white, out, scratch):
-        """Write the band's L*a*b* under ``white`` (3,) into ``out`` (rows, cols, 3), the numbers of
-        :func:`.cielab._xyz_to_lab` of its XYZ; ``scratch``: two arrays of ``out``'s shape and dtype."""
+    def blocks(self):
+        """``(b0, b1)``: the band's rows in blocks of at most :data:`LAB_BLOCK_PIXELS` pixels (a row at least)."""
+        step = max(1, LAB_BLOCK_PIXELS // max(self.cols, 1))
+        return [(b, min(self.rows, b + step)) for b in range(0, self.rows, step)]
+
+    def to_lab(self, white, out, ratios, start=0):
+        """Write the L*a*b* under ``white`` (3,) of the band's rows ``start..start + h`` into ``out`` (h, cols,
+        3), the numbers of :func:`.cielab._xyz_to_lab` of their XYZ; ``ratios``: a buffer of ``out``'s shape
+        and dtype."""
         f0, f1, f2 = self.planes
-        ratios, roots = scratch
         dt = out.dtype
-        _ratio_planes_kernel()(f0, f1, f2, self.row, self.col, OPPONENT_TO_XYZ.astype(dt),
+        _ratio_planes_kernel()(f0, f1, f2, self.row + start, self.col, OPPONENT_TO_XYZ.astype(dt),
                                np.asarray(white, float).astype(dt), ratios)
-        _lab_of_ratios(ratios.reshape(-1, 3), roots.reshape(-1, 3), out.reshape(-1, 3))
+        _lab_of_ratios(ratios.reshape(-1, 3), out.reshape(-1, 3), out.reshape(-1, 3))
 
 
-def _band_scratch(image, spd):
-    """Two buffers (band rows, W, 3) in ``image``'s dtype for :meth:`_Band.to_lab`, made once per image."""
-    H, W = image.shape[:2]
-    band = min(H, _band_rows((H, W)))
-    return np.empty((band, W, 3), image.dtype), np.empty((band, W, 3), image.dtype)
+#: Pixels per block of a band taken to L*a*b* (:meth:`_Band.blocks`): 768 KiB per float32 buffer.
+LAB_BLOCK_PIXELS = 1 << 16
+
+
+def _block_buffer(image):
+    """A buffer (rows, W, 3) in ``image``'s dtype for one block of :meth:`_Band.blocks`."""
+    W = image.shape[1]
+    return np.empty((max(1, LAB_BLOCK_PIXELS // max(W, 1)), W, 3), image.dtype)
 
 
 def _opponent_rows(rows, m, planes, r0, c0, px, convert):
@@ -564,16 +573,17 @@ def filtered_lab(xyz, samples_per_degree, white):
 
 def _filtered_lab(xyz, spd, white):
     """:func:`filtered_lab` of a checked XYZ image (H, W, 3) under a checked white: each band goes from its
-    filtered channels to L*a*b* in the output (:meth:`_Band.to_lab`); one pair of band buffers per group
-    of bands (each group on its own core)."""
+    filtered channels to L*a*b* in the output, block by block (:meth:`_Band.to_lab`), with one block
+    buffer per thread (a group of bands runs on one)."""
     out = np.empty(xyz.shape, xyz.dtype)
-    scratch = {}  # per thread (a group of bands runs on one)
+    buffers = {}
 
     def write(i0, i1, band):
-        mine = scratch.get(threading.get_ident())
-        if mine is None:
-            mine = scratch[threading.get_ident()] = _band_scratch(xyz, spd)
-        band.to_lab(white, out[i0:i1], (mine[0][: i1 - i0], mine[1][: i1 - i0]))
+        ratios = buffers.get(threading.get_ident())
+        if ratios is None:
+            ratios = buffers[threading.get_ident()] = _block_buffer(xyz)
+        for b0, b1 in band.blocks():
+            band.to_lab(white, out[i0 + b0 : i0 + b1], ratios[: b1 - b0], b0)
 
     _filter_image_rows(xyz, spd, write)
     return out
@@ -614,15 +624,15 @@ def scielab(xyz1, xyz2, samples_per_degree, white, *, method="CIE 1976", monitor
     # both images band by band: the filtered bands of each go to Lab and their difference at once, so
     # neither filtered image exists at full size
     out = None
-    # per image (the two may differ in dtype): a band's L*a*b* and the two buffers that make it
-    (lab_a, _), (lab_b, _) = _band_scratch(a, spd), _band_scratch(b, spd)
-    scratch_a, scratch_b = _band_scratch(a, spd), _band_scratch(b, spd)
-    for (i0, i1, fa), (_, _, fb) in zip(_filtered_bands(a, spd, to_xyz=to_a), _filtered_bands(b, spd, to_xyz=to_b)):
-        h = i1 - i0
-        fa.to_lab(w, lab_a[:h], (scratch_a[0][:h], scratch_a[1][:h]))
-        fb.to_lab(w, lab_b[:h], (scratch_b[0][:h], scratch_b[1][:h]))
-        d = delta_e_lab(lab_a[:h], lab_b[:h], method)
-        if out is None:
-            out = np.empty(a.shape[:2], d.dtype)
-        out[i0:i1] = d
+    # per image (the two may differ in dtype), a block's L*a*b* and the buffer that makes it
+    lab_a, ratios_a, lab_b, ratios_b = _block_buffer(a), _block_buffer(a), _block_buffer(b), _block_buffer(b)
+    for (i0, _, fa), (_, _, fb) in zip(_filtered_bands(a, spd, to_xyz=to_a), _filtered_bands(b, spd, to_xyz=to_b)):
+        for b0, b1 in fa.blocks():
+            h = b1 - b0
+            fa.to_lab(w, lab_a[:h], ratios_a[:h], b0)
+            fb.to_lab(w, lab_b[:h], ratios_b[:h], b0)
+            d = delta_e_lab(lab_a[:h], lab_b[:h], method)
+            if out is None:
+                out = np.empty(a.shape[:2], d.dtype)
+            out[i0 + b0 : i0 + b1] = d
     return out
