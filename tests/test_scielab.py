@@ -322,3 +322,16 @@ def test_scielab_is_the_difference_of_the_two_filtered_labs(method):
     b = rng.uniform(0.5, 90.0, size=(530, 200, 3))
     expected = delta_e_lab(filtered_lab(a, 80.0, WHITE), filtered_lab(b, 80.0, WHITE), method)
     np.testing.assert_array_equal(scielab(a, b, 80.0, WHITE, method=method), expected)
+
+
+def test_a_band_lets_its_transforms_go_when_the_next_is_asked_for():
+    """A band of the filter is valid until the next is asked for; then its three transforms are let go even
+    though the caller's loop variable still holds it (at 12 MP that was 12 MiB more per image at the peak)."""
+    from camsim_core.metrics import s_cielab
+
+    xyz = np.random.default_rng(13).uniform(1.0, 90.0, size=(1100, 300, 3)).astype(np.float32)
+    bands = s_cielab._filtered_bands(xyz, 102.6)
+    first = next(bands)[2]
+    assert len(first.planes) == 3 and first.rows == s_cielab._band_rows(xyz.shape[:2])
+    second = next(bands)[2]
+    assert first.planes is None and len(second.planes) == 3

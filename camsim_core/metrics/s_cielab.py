@@ -386,8 +386,12 @@ def _filtered_bands(image, spd, *, opponent_in=False, to_xyz=None, rows=None, sp
             f *= spectra[ch]
             filtered.append(scipy.fft.irfft2(f, s=(fy, fx), overwrite_x=True, workers=workers))
             del f
-        yield i0, i1, _Band(tuple(filtered), 2 * cy, a + px + cx, i1 - i0, W)
+        handed = _Band(tuple(filtered), 2 * cy, a + px + cx, i1 - i0, W)
         del filtered
+        yield i0, i1, handed
+        # valid until the next band is asked for: its transforms are let go now, even where the caller's
+        # loop variable still holds the band while the next one is made
+        handed.planes = None
 
 
 class _Band:
