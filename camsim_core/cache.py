@@ -450,18 +450,20 @@ class Pipeline:
 
         early = {}
         white = np.asarray(white_xyz(monitor), float)
+        # to_xyz's float image, not checked here: the error-map step that takes this L*a*b* checks its values
+        # (check_pair) and reports what it finds, so each image is checked once per move
+        xyz = np.asarray(_data(result.xyz))
         for metric, step in (("cielab", "delta_e"), ("scielab", "scielab")):
             memo = self._memo.get(step)
             if metric not in proc.metrics or (memo is not None and memo[0][0] == t_xyz):
                 continue
             t0 = time.perf_counter()
             try:
-                xyz = metrics.cielab.check_xyz(_data(result.xyz), "xyz1")
                 if metric == "cielab":
                     early[metric] = _lab_map(xyz, white)
                 else:
                     spd = _samples_per_degree(result.rendered, proc.viewing)
-                    early[metric] = (spd, metrics.filtered_lab(xyz, spd, white))
+                    early[metric] = (spd, metrics.s_cielab._filtered_lab(xyz, spd, white))
             except (CamsimError, ValueError, TypeError, ArithmeticError):
                 continue
             result.ran.append((step, time.perf_counter() - t0))

@@ -262,6 +262,25 @@ def test_pipeline_keeps_the_ideal_lab_and_still_gives_fresh_numbers(base, camera
     np.testing.assert_array_equal(r.delta_e, metrics.delta_e(r.xyz, r.ideal_xyz, r.white))
 
 
+def test_an_scielab_move_checks_each_xyz_image_once(base, camera, monkeypatch):
+    """An exposure move with S-CIELAB shown makes both images again; each one's finiteness pass runs once
+    (the camera's in the error-map step, the ideal's where its filtered L*a*b* is made), whether the camera's
+    L*a*b* is made beside the ideal side or after it."""
+    from camsim_core.metrics import cielab, s_cielab
+
+    checked = []
+    real = cielab.check_xyz
+    counting = lambda xyz, name="xyz": checked.append(name) or real(xyz, name)  # noqa: E731
+    monkeypatch.setattr(cielab, "check_xyz", counting)
+    monkeypatch.setattr(s_cielab, "check_xyz", counting)
+    p, shown = Pipeline(), Processing(metrics=("scielab",))
+    p.run(base, camera, shown)
+    checked.clear()
+    r = p.run(base, camera.replace(exposure=camera.exposure * 1.2), shown)
+    assert "ideal" in r.ran_steps and "scielab" in r.ran_steps
+    assert sorted(checked) == ["xyz", "xyz1"], checked
+
+
 # -- experiments runner -------------------------------------------------------------
 def test_choose_workers():
     assert choose_workers(10) is None  # a small sweep: in this process
