@@ -380,20 +380,36 @@ def _filtered_bands(image, spd, *, opponent_in=False, to_xyz=None, rows=None, sp
         planes[:, s1 - lo :] = 0
         to_planes(np.ascontiguousarray(rows), to_opp, planes, s0 - lo, a, px, not opponent_in)
         del rows
-        # one zero-padded FFT product per channel (the numbers of the whole image's transform); the valid
-        # part of each is read where it lies (rows from 2 cy, columns from a + px + cx), not copied out
+        # one zero-padded FFT product per channel (the numbers of the whole image's transform), one axis at a
+        # time: the inverse's last pass (along rows) makes only the valid rows (from 2 cy), and the valid
+        # columns (from a + px + cx) are read where they lie, not copied out
         filtered = []
         for ch in range(3):
-            f = scipy.fft.rfft2(planes[ch], workers=workers)
-            f *= spectra[ch]
-            filtered.append(scipy.fft.irfft2(f, s=(fy, fx), overwrite_x=True, workers=workers))
-            del f
-        handed = _Band(tuple(filtered), 2 * cy, a + px + cx, i1 - i0, W)
+            filtered.append(_band_product(planes[ch], spectra[ch], 2 * cy, i1 - i0, fx, workers))
+        handed = _Band(tuple(filtered), 0, a + px + cx, i1 - i0, W)
         del filtered
         yield i0, i1, handed
         # valid until the next band is asked for: its transforms are let go now, even where the caller's
         # loop variable still holds the band while the next one is made
         handed.planes = None
+
+
+def _band_product(plane, spectrum, first, rows, fx, workers):
+    """Rows ``first .. first + rows`` of the circular convolution of ``plane`` (fy, fx) with the kernel whose
+    2-D real-input spectrum is ``spectrum`` (fy, fx // 2 + 1): rows ``rfft`` then columns ``fft``, the
+    product, columns ``ifft``, and ``irfft`` of the wanted rows only.
+
+    The numbers of ``irfft2(rfft2(plane) * spectrum)`` to rounding, in the plane's precision. Axis by axis
+    because scipy's two-axis inverse was slower than its own two passes (5.2 against 3.2 ms for a 360 x
+    1440 float32 band, 5.8 with ``overwrite_x``), and because the last pass can skip the rows in the
+    band's margins (a third of a 253-row band's). A 1012 x 1317 image's filtered L*a*b* (four such bands
+    a channel): 97 -> 80 ms on one core, 51 -> 42 ms on two (medians of 15 interleaved runs).
+    """
+    f = scipy.fft.rfft(plane, axis=1, workers=workers)
+    f = scipy.fft.fft(f, axis=0, overwrite_x=True, workers=workers)
+    f *= spectrum
+    f = scipy.fft.ifft(f, axis=0, overwrite_x=True, workers=workers)
+    return scipy.fft.irfft(f[first : first + rows], n=fx, axis=1, workers=workers)
 
 
 class _Band:
