@@ -16,6 +16,7 @@ Hand-written: colour-demosaicing handles Bayer tiles only.
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 from scipy import ndimage
@@ -218,19 +219,27 @@ def _stencil_rows(data, own, starts, dy, dx, w, wsum, out, r0, r1):
                     for j in range(lo, hi, m):
                         acc[j] += wt * data[row, j + d]
                 total = wsum[q]
-                for j in range(lo, hi, m):
-                    out[i, j, c] = acc[j] / total if total > 0 else 0.0
-                # the pixels near an edge: only the taps inside the image
-                for j in range(pj, W, m):
-                    if j >= lo and j < hi:
-                        continue
-                    s, tw = 0.0, 0.0
-                    for t in range(starts[q], starts[q + 1]):
-                        ii, jj = i + dy[t], j + dx[t]
-                        if ii >= 0 and ii < H and jj >= 0 and jj < W:
-                            s += w[t] * data[ii, jj]
-                            tw += w[t]
-                    out[i, j, c] = s / tw if tw > 0 else 0.0
+                if total > 0 and math.frexp(total)[0] == 0.5:
+                    # a power of two (Bayer's sums): dividing is multiplying by its inverse, exactly
+                    inverse = 1.0 / total
+                    for j in range(lo, hi, m):
+                        out[i, j, c] = acc[j] * inverse
+                else:
+                    for j in range(lo, hi, m):
+                        out[i, j, c] = acc[j] / total if total > 0 else 0.0
+                # the pixels near an edge, the phase's columns before lo and from the first at or past hi
+                # (all of them in the top and bottom rows): only the taps inside the image
+                past = lo + ((hi - lo + m - 1) // m) * m
+                for side in range(2):
+                    j0, j1 = (pj, min(lo, W)) if side == 0 else (past, W)
+                    for j in range(j0, j1, m):
+                        s, tw = 0.0, 0.0
+                        for t in range(starts[q], starts[q + 1]):
+                            ii, jj = i + dy[t], j + dx[t]
+                            if ii >= 0 and ii < H and jj >= 0 and jj < W:
+                                s += w[t] * data[ii, jj]
+                                tw += w[t]
+                        out[i, j, c] = s / tw if tw > 0 else 0.0
 
 
 _stencil_kernel = compiled(_stencil_rows)
