@@ -173,7 +173,8 @@ class Monitor:
         v = np.asarray(values)
         dtype = v.dtype if v.dtype in (np.float32, np.float64) else np.dtype(np.float64)
         full = 2**self.bits - 1
-        idx = v.astype(np.int32)
+        with np.errstate(invalid="ignore"):  # NaN or out of int32's range: not a table index, checked next
+            idx = v.astype(np.int32)
         if not (np.array_equal(idx, v) and idx.min(initial=0) >= 0 and idx.max(initial=0) <= full):
             return self.settings_to_linear(v / float(full)).astype(dtype, copy=False)
         idx += np.arange(3, dtype=np.int32) * (full + 1)

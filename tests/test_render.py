@@ -289,6 +289,10 @@ def test_to_xyz_of_frame_buffer_values_by_its_table_and_otherwise(monitor, dtype
     expect[7, 9] = monitor.settings_to_linear(np.clip(odd[7, 9].astype(float) / 255.0, 0, None)) @ m.T
     got = cs.to_xyz(img.replace(data=odd), monitor)
     np.testing.assert_allclose(got, expect, rtol=tol, atol=tol * np.abs(expect).max())
+    odd[7, 9] = (-1.0, np.nan, 3.0)  # below the table, and NaN: the general path, NaN stays NaN
+    got = cs.to_xyz(img.replace(data=odd), monitor)
+    assert np.isnan(got[7, 9]).any() and np.isfinite(np.delete(got.reshape(-1, 3), 7 * 400 + 9, axis=0)).all()
+    np.testing.assert_allclose(got[8:], expect[8:], rtol=tol, atol=tol * np.abs(expect).max())
 
 
 def test_render_follows_its_formula_pixel_by_pixel(monitor):
