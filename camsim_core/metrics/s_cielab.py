@@ -386,7 +386,7 @@ def _filtered_bands(image, spd, *, opponent_in=False, to_xyz=None, rows=None, sp
         filtered = []
         for ch in range(3):
             filtered.append(_band_product(planes[ch], spectra[ch], 2 * cy, i1 - i0, fx, workers))
-        handed = _Band(tuple(filtered), 0, a + px + cx, i1 - i0, W)
+        handed = _Band(tuple(filtered), a + px + cx, i1 - i0, W)
         del filtered
         yield i0, i1, handed
         # valid until the next band is asked for: its transforms are let go now, even where the caller's
@@ -414,7 +414,7 @@ def _band_product(plane, spectrum, first, rows, fx, workers):
 
 class _Band:
     """Output rows of the filtered image: the three filtered opponent channels ``planes`` (each a C-ordered
-    (fy, fx) transform output) hold them at rows ``row``.. and columns ``col``.. (``rows`` x ``cols``).
+    (rows, fx) inverse transform, :func:`_band_product`) hold them at columns ``col``.. (``rows`` x ``cols``).
 
     Its methods take the band straight to pixels or to L*a*b* in one compiled pass each (no copy of the
     valid part, no band of XYZ): numpy's per-channel products and the separate XYZ, ratio and copy passes
@@ -422,16 +422,16 @@ class _Band:
     (:meth:`blocks`), so its temporaries stay in the CPU's cache and a few MiB at 12 megapixels.
     """
 
-    __slots__ = ("planes", "row", "col", "rows", "cols")
+    __slots__ = ("planes", "col", "rows", "cols")
 
-    def __init__(self, planes, row, col, rows, cols):
-        self.planes, self.row, self.col, self.rows, self.cols = planes, row, col, rows, cols
+    def __init__(self, planes, col, rows, cols):
+        self.planes, self.col, self.rows, self.cols = planes, col, rows, cols
 
     def to_pixels(self, out, *, convert=True):
         """Write the band into ``out`` (rows, cols, 3): XYZ (``OPPONENT_TO_XYZ`` applied), or the opponent
         channels themselves when not ``convert``."""
         f0, f1, f2 = self.planes
-        _back_kernel()(f0, f1, f2, self.row, self.col, OPPONENT_TO_XYZ.astype(out.dtype), out, convert)
+        _back_kernel()(f0, f1, f2, 0, self.col, OPPONENT_TO_XYZ.astype(out.dtype), out, convert)
 
     def blocks(self):
         """``(b0, b1)``: the band's rows in blocks of at most :data:`LAB_BLOCK_PIXELS` pixels (a row at least)."""
@@ -444,7 +444,7 @@ class _Band:
         and dtype."""
         f0, f1, f2 = self.planes
         dt = out.dtype
-        _ratio_planes_kernel()(f0, f1, f2, self.row + start, self.col, OPPONENT_TO_XYZ.astype(dt),
+        _ratio_planes_kernel()(f0, f1, f2, start, self.col, OPPONENT_TO_XYZ.astype(dt),
                                np.asarray(white, float).astype(dt), ratios)
         _lab_of_ratios(ratios.reshape(-1, 3), out.reshape(-1, 3), out.reshape(-1, 3))
 
