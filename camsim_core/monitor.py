@@ -137,9 +137,10 @@ class Monitor:
                 flat[unsure[sel]] = np.rint(self._settings(x[sel].astype(np.float64), ch) * full)
         return out
 
-    def _settings_to_frame_buffer(self, rows, matrix, scale):
+    def _settings_to_frame_buffer(self, rows, matrix, scale, out=None):
         """Frame-buffer values (n, 3) of sensor rows (n, K): ``clip(matrix @ r / scale, 0, 1)``, then
-        :meth:`linear_to_frame_buffer`'s table, in one compiled pass (:func:`_render_rows`).
+        :meth:`linear_to_frame_buffer`'s table, in one compiled pass (:func:`_render_rows`); written into
+        ``out`` (n, 3, C-ordered, the rows' dtype) when given.
 
         The rendering of a chunk of pixels: numpy takes ~10 passes for the
         same (the product, scaling, clipping, bucket index, two lookups and
@@ -149,7 +150,8 @@ class Monitor:
         """
         dtype = rows.dtype
         lo, hi = _frame_buffer_tables(self, dtype)
-        out = np.empty((rows.shape[0], 3), dtype)
+        if out is None:
+            out = np.empty((rows.shape[0], 3), dtype)
         unsure = np.empty(rows.shape[0] * 3, np.int64)
         kernel = _render_kernel3() if rows.shape[1] == 3 else _render_kernel()
         count = kernel(np.ascontiguousarray(rows), np.ascontiguousarray(matrix, dtype), dtype.type(scale),

@@ -217,3 +217,34 @@ def test_map_pixels_runs_every_chunk_on_the_pool_and_probes_one_row_here(monkeyp
     chunks = calls[1:]
     assert sorted(n for n, _ in chunks) == sorted([200_000] * 5 + [100_000])
     assert all(name.startswith("camsim-block") for _, name in chunks)
+
+
+@pytest.mark.parametrize("shape", [(1000, 1100, 3), (40, 50, 3), (0, 7, 3)])
+def test_map_pixels_into_writes_each_chunk_in_place_once(monkeypatch, shape):
+    """With ``into``, each chunk is handed its own C-ordered rows of the result to write (no probe row, no
+    copy): the rows cover the result exactly once, large images on the pool, and the numbers are the
+    function's on the whole."""
+    import threading
+
+    from camsim_core import _chunks
+
+    monkeypatch.setattr(parallel, "CORES", 2)
+    monkeypatch.setattr(_chunks, "CORES", 2)
+    seen = []
+
+    def halve(rows, out):
+        assert out.flags.c_contiguous and out.shape == (rows.shape[0], 2) and out.dtype == np.float32
+        seen.append((out.__array_interface__["data"][0], rows.shape[0], threading.current_thread().name))
+        out[:] = rows[:, :2] * 0.5
+        return "ignored"
+
+    x = np.random.default_rng(13).uniform(0, 1, shape).astype(np.float32)
+    out = _chunks.map_pixels(halve, x, chunk=200_000, into=(2, np.float32))
+    assert out.shape == shape[:2] + (2,) and out.dtype == np.float32
+    np.testing.assert_array_equal(out, x[:, :, :2] * np.float32(0.5))
+    n = shape[0] * shape[1]
+    assert sorted(rows for _, rows, _ in seen) == sorted([200_000] * (n // 200_000) + ([n % 200_000] if n % 200_000 else []))
+    base = out.__array_interface__["data"][0]
+    assert sorted(ptr - base for ptr, _, _ in seen) == [i * 200_000 * 2 * 4 for i in range(len(seen))]
+    if n > 200_000:
+        assert all(name.startswith("camsim-block") for _, _, name in seen)

@@ -128,14 +128,14 @@ def render(image, monitor, method="baseline", illuminant=None, dimensions=None, 
     s, source = display_scale(image, mon, white=white_used, scale=scale, linear=peak)
     extra.update(display_scale=s, scale_source=source, monitor=mon.name)
 
-    def frame_buffer(c):
+    def frame_buffer(c, out):
         # settings, display scale, clipping and gamma in one compiled pass (Monitor._settings_to_frame_buffer)
-        return mon._settings_to_frame_buffer(c, m, s)
+        mon._settings_to_frame_buffer(c, m, s, out=out)
 
     return image.then(
         f"render:{key}",
         # settings, display scale, clipping and gamma by chunks of pixels: no full-size float temporary
-        data=map_pixels(frame_buffer, data),
+        data=map_pixels(frame_buffer, data, into=(3, data.dtype)),
         space="monitor",
         bits=mon.bits,
         quantized=True,

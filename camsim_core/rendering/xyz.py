@@ -43,7 +43,7 @@ def to_xyz(rendered, monitor):
     In the image's float dtype (a float32 rendering gives float32 XYZ).
     """
     data, convert = xyz_converter(rendered, monitor)
-    return map_pixels(convert, data)  # by chunks: no full-size temporaries
+    return map_pixels(convert, data, into=(3, data.dtype))  # by chunks: no full-size temporaries
 
 
 def xyz_converter(rendered, monitor, name="rendered"):
@@ -51,7 +51,8 @@ def xyz_converter(rendered, monitor, name="rendered"):
 
     For callers that need XYZ a part at a time (the metrics, by chunks or
     bands of rows) without holding a full XYZ image; :func:`to_xyz` is
-    ``map_pixels(convert, data)``.
+    ``map_pixels(convert, data)``, the chunks written into its result
+    (``convert(values, out=...)``: ``out`` (n, 3) in the data's dtype).
     """
     if getattr(rendered, "space", None) != "monitor":
         raise ParameterError(name, f"needs a rendered monitor image (space 'monitor'), got {getattr(rendered, 'space', type(rendered).__name__)!r}")
@@ -68,16 +69,18 @@ def xyz_converter(rendered, monitor, name="rendered"):
         m_dt = np.ascontiguousarray(m, dtype)
         kernel = _xyz_kernel()
 
-    def convert(values):
+    def convert(values, out=None):
+        if out is None:
+            out = np.empty(values.shape, dtype)
         if bits == monitor.bits:
             values = np.ascontiguousarray(values)
-            out = np.empty(values.shape, dtype)
             if kernel(values, table, m_dt, out) < 0:  # every value a table index: done in one pass
                 return out
             linear = monitor.frame_buffer_to_linear(values)
         else:
             linear = monitor.settings_to_linear(values / float(2**bits - 1)).astype(values.dtype, copy=False)
-        return apply_matrix(linear[:, None, :], m)[:, 0, :]
+        out[...] = apply_matrix(linear[:, None, :], m)[:, 0, :]
+        return out
 
     return data, convert
 
