@@ -199,6 +199,28 @@ def test_digitize_rounds_and_clips(dcs200_ir):
     assert out.quantized and out.bits == 8
 
 
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("black", [0.0, 15.0, 0.1])
+@pytest.mark.parametrize("shape", [(0, 4), (3, 5), (301, 257, 3)])
+def test_digitize_is_round_clip_and_pedestal_value_by_value(dcs200_ir, dtype, black, shape):
+    """Every value is rint(v + pedestal) (halves to even, the sum in the image's dtype: float32 2.4 + 0.1 is
+    a tie, 2) clipped to [0, 255];
+    NaN (an overflow upstream) saturates, infinities clip: numpy's formula written out here, on ties, NaN,
+    infinities and values far out of range, in images split into blocks of rows and not."""
+    rng = np.random.default_rng(8)
+    data = rng.normal(100, 140, shape).astype(dtype)
+    specials = [0.5, 1.5, 2.5, -0.5, -0.25, 254.5, 255.5, np.nan, np.inf, -np.inf, 1e30, -1e30, 239.75, 3.4999998, 2.4]
+    flat = data.reshape(-1)
+    flat[: min(flat.size, len(specials))] = specials[: flat.size]
+    img = cs.CameraImage(data, W31, space="sensor")
+    out = digitize(dcs200_ir.replace(bits=8, black_level=black), img)
+    summed = data + dtype(black)
+    expect = np.clip(np.where(np.isnan(summed), 255.0, np.rint(summed)), 0, 255).astype(dtype)
+    assert out.data.dtype == dtype and out.data.shape == shape
+    np.testing.assert_array_equal(out.data, expect)
+    assert out.black_level == black and out.quantized
+
+
 def test_static_nonlinearity_gamma_and_table(dcs200_ir):
     v = np.array([[0.0, 63.75, 255.0]])
     img = cs.CameraImage(v, W31, space="sensor")
