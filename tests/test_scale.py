@@ -150,6 +150,28 @@ def test_resample_equals_dense_eq_1_2_matrices(camera, d, limit, dtype):
     np.testing.assert_allclose(out, ref, rtol=0, atol=1e-12 if dtype == np.float64 else 1e-6)
 
 
+def test_interpolating_resample_rounds_each_value_once_in_float32(camera):
+    """Where the camera is finer than the scene (two taps per axis), each output value is the float32 rounding
+    of the exact sum of its two float32 tap products (the y pass's rows made as the kernel makes them, one
+    float32 multiply-add per tap): summed in float32 or accumulated in float64, the same numbers."""
+    from camsim_core.simulation.resample import axis_weights
+
+    H, W = 61, 87
+    data = np.random.default_rng(3).uniform(0, 1, (H, W, 3)).astype(np.float32)
+    img = image_from_scene(Scene(np.ones((H, W, 31)), W31, distance=2.0, angular_resolution=(57.3, 40.0))).replace(data=data, space="sensor")
+    cam = camera.replace(distance=1.2, angular_resolution=(102.6, 80.0), height=400, width=400)
+    out = resample(cam, img).data
+    iy, wy = axis_weights(H, 40.0, 80.0, 2.0, 1.2, 400)
+    ix, wx = axis_weights(W, 57.3, 102.6, 2.0, 1.2, 400)
+    assert iy.shape[1] == ix.shape[1] == 2
+    rows = np.zeros((iy.shape[0], W, 3), np.float32)
+    for s in range(2):
+        rows += wy[:, s, None, None].astype(np.float32) * data[iy[:, s]]
+    p0, p1 = (wx[None, :, s, None].astype(np.float32) * rows[:, ix[:, s]] for s in range(2))
+    assert p0.dtype == np.float32
+    np.testing.assert_array_equal(out, (p0.astype(np.float64) + p1.astype(np.float64)).astype(np.float32))
+
+
 @pytest.mark.parametrize("tile", [BAYER["GRBG"], np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]]), np.array([[2, 0, 1, 1]])])
 def test_strided_mosaic_equals_index_map(camera, tile):
     data = np.random.default_rng(2).uniform(0, 9, (23, 17, 3))
