@@ -139,30 +139,23 @@ class Monitor:
 
     def _settings_to_frame_buffer(self, rows, matrix, scale, out=None):
         """Frame-buffer values (n, 3) of sensor rows (n, K): ``clip(matrix @ r / scale, 0, 1)``, then
-        :meth:`linear_to_frame_buffer`'s table, in one compiled pass (:func:`_render_rows`); written into
+        :meth:`linear_to_frame_buffer`'s numbers, in one compiled pass (:func:`_render_rows`); written into
         ``out`` (n, 3, C-ordered, the rows' dtype) when given.
 
         The rendering of a chunk of pixels: numpy takes ~10 passes for the
-        same (the product, scaling, clipping, bucket index, two lookups and
-        their comparison). Entries whose bucket holds a step are evaluated
-        exactly afterwards, as :meth:`linear_to_frame_buffer` does. In the
-        rows' float dtype (float32 stays float32).
+        same (the product, scaling, clipping, bucket index, lookups). A value
+        whose bucket holds a step is settled in the pass by the table of
+        where each frame-buffer value begins (:func:`_frame_buffer_steps`),
+        not evaluated afterwards. In the rows' float dtype (float32 stays
+        float32); NaN stays NaN.
         """
         dtype = rows.dtype
-        lo, hi = _frame_buffer_tables(self, dtype)
+        lo, _ = _frame_buffer_tables(self, dtype)
         if out is None:
             out = np.empty((rows.shape[0], 3), dtype)
-        unsure = np.empty(rows.shape[0] * 3, np.int64)
         kernel = _render_kernel3() if rows.shape[1] == 3 else _render_kernel()
-        count = kernel(np.ascontiguousarray(rows), np.ascontiguousarray(matrix, dtype), dtype.type(scale),
-                       np.array([0, 1], dtype), lo, hi, _BUCKETS, out, unsure)
-        if count:
-            flat, unsure = out.reshape(-1), unsure[:count]
-            x, c = flat[unsure].astype(np.float64), unsure % 3  # the linear values, left there by the kernel
-            full = float(2**self.bits - 1)
-            for ch in range(3):
-                sel = c == ch
-                flat[unsure[sel]] = np.rint(self._settings(x[sel], ch) * full)
+        kernel(np.ascontiguousarray(rows), np.ascontiguousarray(matrix, dtype), dtype.type(scale),
+               np.array([0, 1], dtype), lo, _frame_buffer_steps(self, dtype), _BUCKETS, out)
         return out
 
     def frame_buffer_to_linear(self, values):
@@ -197,19 +190,20 @@ class Monitor:
 _BUCKETS = 1 << 16
 
 
-def _render_rows(rows, m, scale, limits, lo, hi, buckets, out, unsure):
-    """The kernel of :meth:`Monitor._settings_to_frame_buffer`; returns how many entries of ``unsure`` it filled.
+def _render_rows(rows, m, scale, limits, lo, steps, buckets, out):
+    """The kernel of :meth:`Monitor._settings_to_frame_buffer`.
 
     Per pixel and channel: the linear setting ``w = (m @ r) / scale`` clipped
-    to ``limits`` ([0, 1] in the rows' dtype, so that numba keeps ``w`` in it; NaN counts as unsure), its bucket ``int(w * buckets)``, and
-    the bucket's value when its two ends agree; otherwise ``w`` is left in
-    ``out`` and the entry's flat index recorded for the exact evaluation.
-    Compiled by numba (:func:`_render_kernel`).
+    to ``limits`` ([0, 1] in the rows' dtype, so that numba keeps ``w`` in
+    it), its bucket ``int(w * buckets)``, the frame-buffer value at the
+    bucket's low end, raised past every step at or below ``w`` (``steps[c, v]``:
+    where channel c's value v + 1 begins; usually one comparison, a bucket
+    seldom holds a step). NaN stays NaN. Compiled by numba (:func:`_render_kernel`).
     """
     k = rows.shape[1]
-    count = 0
     top = limits[1] * buckets  # the bucket count as a float (a power of 2: w * top is exact, as w * buckets was)
     stride = buckets + 1
+    full = steps.shape[1]
     for i in range(rows.shape[0]):
         for c in range(3):
             w = m[c, 0] * rows[i, 0]
@@ -221,25 +215,22 @@ def _render_rows(rows, m, scale, limits, lo, hi, buckets, out, unsure):
             elif w > limits[1]:
                 w = limits[1]
             if w >= 0:  # not NaN
-                idx = int(w * top) + c * stride
-                a = lo[idx]
-                if hi[idx] == a:
-                    out[i, c] = a
-                    continue
-            out[i, c] = w
-            unsure[count] = 3 * i + c
-            count += 1
-    return count
+                v = int(lo[int(w * top) + c * stride])
+                while v < full and w >= steps[c, v]:
+                    v += 1
+                out[i, c] = v
+            else:
+                out[i, c] = w
 
 
-def _render_rows3(rows, m, scale, limits, lo, hi, buckets, out, unsure):
+def _render_rows3(rows, m, scale, limits, lo, steps, buckets, out):
     """:func:`_render_rows` for three sensors, a pixel's three values held for its three channels (the same
     numbers, in the same order of operations; a quarter less time than the general loop). Its clipping and
     lookup repeat the general kernel's lines: each kernel is compiled alone, and a helper shared between
     them would have to be compiled on its own and inlined."""
-    count = 0
     top = limits[1] * buckets
     stride = buckets + 1
+    full = steps.shape[1]
     for i in range(rows.shape[0]):
         r0, r1, r2 = rows[i, 0], rows[i, 1], rows[i, 2]
         for c in range(3):
@@ -252,15 +243,12 @@ def _render_rows3(rows, m, scale, limits, lo, hi, buckets, out, unsure):
             elif w > limits[1]:
                 w = limits[1]
             if w >= 0:  # not NaN
-                idx = int(w * top) + c * stride
-                a = lo[idx]
-                if hi[idx] == a:
-                    out[i, c] = a
-                    continue
-            out[i, c] = w
-            unsure[count] = 3 * i + c
-            count += 1
-    return count
+                v = int(lo[int(w * top) + c * stride])
+                while v < full and w >= steps[c, v]:
+                    v += 1
+                out[i, c] = v
+            else:
+                out[i, c] = w
 
 
 _render_kernel = compiled(_render_rows)
@@ -292,6 +280,40 @@ def _frame_buffer_tables(monitor, dtype):
     # whole numbers: held in the narrowest unsigned type (an 8-bit monitor's tables fit the CPU's cache)
     store = np.uint8 if full <= 255 else np.uint16 if full <= 65535 else dtype
     return lo.astype(store).ravel(), hi.astype(store).ravel()
+
+
+@lru_cache(maxsize=16)
+def _frame_buffer_steps(monitor, dtype):
+    """Per channel, where each frame-buffer value begins: (3, 2**bits - 1) in ``dtype``, read-only.
+
+    Entry [c, v] is the smallest ``dtype`` value x in [0, 1] whose frame-buffer value
+    ``rint(linear_to_settings(x) * (2**bits - 1))`` exceeds v (0 when even x = 0 does, +inf when
+    not even x = 1 does): the value is a non-decreasing step function of x, so the value of any
+    x is the number of entries at or below it. Found by bisection over the dtype's values
+    (non-negative floats order as their bit patterns), evaluating that expression exactly.
+    """
+    full = 2**monitor.bits - 1
+    dt = np.dtype(dtype)
+    bits = np.uint32 if dt.itemsize == 4 else np.uint64
+    levels = np.arange(full, dtype=np.float64)
+    one = np.array(1, dt).view(bits)
+    steps = np.empty((3, full), dt)
+    for c in range(3):
+        def value(b):
+            return np.rint(monitor._settings(b.view(dt).astype(np.float64), c) * float(full))
+
+        lo = np.zeros(full, bits)  # value(lo) <= v < value(hi), kept while they are apart
+        hi = np.full(full, one, bits)
+        for _ in range(8 * dt.itemsize):
+            mid = lo + (hi - lo) // 2
+            above = value(mid) > levels
+            hi = np.where(above, mid, hi)
+            lo = np.where(above, lo, mid)
+        steps[c] = hi.view(dt)
+        steps[c, value(np.zeros(1, bits))[0] > levels] = 0
+        steps[c, value(np.full(1, one, bits))[0] <= levels] = np.inf
+    steps.flags.writeable = False
+    return steps
 
 
 def read_smon(path):

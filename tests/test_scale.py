@@ -256,6 +256,30 @@ def test_frame_buffer_table_is_identical_to_interpolation(name, dtype):
     np.testing.assert_array_equal(m.frame_buffer_to_linear(fb + 0.5), m.settings_to_linear((fb + 0.5) / 255.0))
 
 
+@pytest.mark.parametrize("name", ["simtoolbox-test", "brainard-crt"])
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_compiled_rendering_gives_the_exact_frame_buffer_value_at_every_step(name, dtype):
+    """The rendering kernel settles a value whose table bucket holds a step by the table of where each
+    frame-buffer value begins: rint(255 x linear_to_settings(w)) exactly, at each step's first value and the
+    value just below it, on random and very dark intensities (where steps crowd), out of range and NaN."""
+    from camsim_core.monitor import _frame_buffer_steps
+
+    m = cs.load_monitor(name)
+    steps = _frame_buffer_steps(m, np.dtype(dtype))
+    assert steps.shape == (3, 255) and np.all(np.diff(steps, axis=1) >= 0)
+    rng = np.random.default_rng(9)
+    edges = steps[np.isfinite(steps)].astype(dtype)
+    w = np.concatenate([edges, np.nextafter(edges, dtype(0)), np.nextafter(edges, dtype(2)),
+                        rng.random(60_000).astype(dtype), (rng.random(60_000) ** 8).astype(dtype),
+                        np.array([0, 1, -0.5, 1.5, 5e-324, np.nan], dtype)])
+    rows = np.repeat(w[:, None], 3, axis=1)  # each channel sees every value
+    out = m._settings_to_frame_buffer(rows, np.eye(3), 1.0)
+    expect = np.rint(m.linear_to_settings(np.clip(rows.astype(np.float64), 0, 1)) * 255)
+    expect[np.isnan(rows)] = np.nan
+    assert out.dtype == dtype
+    np.testing.assert_array_equal(out, expect)
+
+
 # -- metrics ------------------------------------------------------------------------
 def test_numpy_lab_matches_colour_science():
     rng = np.random.default_rng(6)
