@@ -432,11 +432,14 @@ class Pipeline:
 
             def scielab():
                 # metrics.scielab, with the ideal image's filtered L*a*b* kept between moves; each image checked
-                # once (the ideal where its filtered L*a*b* is made, beside or here), not again by every step
-                xyz, ideal = metrics.cielab.check_pair(_data(result.xyz), _data(result.ideal_xyz), check_second=False)
+                # once, where its filtered L*a*b* is made (the ideal's beside or here, the camera's before the
+                # join when made then: not in this last step, which runs alone), not again by every step
+                lab = early["scielab"][1] if early.get("scielab", (None,))[0] == spd else None
+                xyz, ideal = metrics.cielab.check_pair(_data(result.xyz), _data(result.ideal_xyz),
+                                                       check_first=lab is None, check_second=False)
                 ideal_lab = self._ideal_side(("scielab", t_ixyz, spd), lambda: metrics.filtered_lab(ideal, spd, white))
-                lab = (early["scielab"][1] if early.get("scielab", (None,))[0] == spd
-                       else metrics.s_cielab._filtered_lab(xyz, spd, metrics.cielab.check_white(white)))
+                if lab is None:
+                    lab = metrics.s_cielab._filtered_lab(xyz, spd, metrics.cielab.check_white(white))
                 return metrics.delta_e_lab(lab, ideal_lab)
 
             _, result.scielab = self._step("scielab", (t_xyz, t_ixyz, spd), scielab, result)
@@ -450,8 +453,10 @@ class Pipeline:
 
         early = {}
         white = np.asarray(white_xyz(monitor), float)
-        # to_xyz's float image, not checked here: the error-map step that takes this L*a*b* checks its values
-        # (check_pair) and reports what it finds, so each image is checked once per move
+        # to_xyz's float image. For the plain L*a*b*, not checked here: the error-map step that takes it checks
+        # its values (check_pair) and reports what it finds. For S-CIELAB's, checked here (in the step, after
+        # the join, the check would run alone on one core): a failure leaves it to the step, which checks
+        # again and reports. Either way each image is checked once per move
         xyz = np.asarray(_data(result.xyz))
         for metric, step in (("cielab", "delta_e"), ("scielab", "scielab")):
             memo = self._memo.get(step)
@@ -463,7 +468,8 @@ class Pipeline:
                     early[metric] = _lab_map(xyz, white)
                 else:
                     spd = _samples_per_degree(result.rendered, proc.viewing)
-                    early[metric] = (spd, metrics.s_cielab._filtered_lab(xyz, spd, white))
+                    checked = metrics.cielab.check_xyz(xyz, "xyz1")
+                    early[metric] = (spd, metrics.s_cielab._filtered_lab(checked, spd, white))
             except (CamsimError, ValueError, TypeError, ArithmeticError):
                 continue
             result.ran.append((step, time.perf_counter() - t0))

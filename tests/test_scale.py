@@ -327,23 +327,44 @@ def test_pipeline_keeps_the_ideal_lab_and_still_gives_fresh_numbers(base, camera
     np.testing.assert_array_equal(r.delta_e, metrics.delta_e(r.xyz, r.ideal_xyz, r.white))
 
 
-def test_an_scielab_move_checks_each_xyz_image_once(base, camera, monkeypatch):
+@pytest.mark.parametrize("beside", [True, False])
+def test_an_scielab_move_checks_each_xyz_image_once(base, camera, monkeypatch, beside):
     """An exposure move with S-CIELAB shown makes both images again; each one's finiteness pass runs once
-    (the camera's in the error-map step, the ideal's where its filtered L*a*b* is made), whether the camera's
-    L*a*b* is made beside the ideal side or after it."""
+    (the ideal's where its filtered L*a*b* is made; the camera's there too when it is made beside the ideal
+    side, else in the error-map step after the join), and the map is the same either way."""
+    from camsim_core import cache
     from camsim_core.metrics import cielab, s_cielab
 
-    checked = []
-    real = cielab.check_xyz
+    class NotYet:  # the ideal side still running when the camera's image reaches XYZ
+        def __init__(self, future):
+            self.future = future
+
+        def done(self):
+            return False
+
+        def result(self):
+            return self.future.result()
+
+    start = cache._start
+    monkeypatch.setattr(cache, "_start", (lambda fn, parallel: NotYet(start(fn, parallel=False))) if beside
+                        else (lambda fn, parallel: start(fn, parallel=False)))
+    checked, made = [], []
+    real, real_lab = cielab.check_xyz, s_cielab._filtered_lab
     counting = lambda xyz, name="xyz": checked.append(name) or real(xyz, name)  # noqa: E731
     monkeypatch.setattr(cielab, "check_xyz", counting)
     monkeypatch.setattr(s_cielab, "check_xyz", counting)
+    monkeypatch.setattr(s_cielab, "_filtered_lab", lambda *a: made.append(len(checked)) or real_lab(*a))
     p, shown = Pipeline(), Processing(metrics=("scielab",))
     p.run(base, camera, shown)
     checked.clear()
-    r = p.run(base, camera.replace(exposure=camera.exposure * 1.2), shown)
+    made.clear()
+    moved = camera.replace(exposure=camera.exposure * 1.2)
+    r = p.run(base, moved, shown)
     assert "ideal" in r.ran_steps and "scielab" in r.ran_steps
     assert sorted(checked) == ["xyz", "xyz1"], checked
+    assert made == [1, 2]  # the ideal's, then the camera's filtered L*a*b*, each made once its image is checked
+    fresh = Pipeline().run(base, moved, shown)
+    np.testing.assert_array_equal(r.scielab, fresh.scielab)
 
 
 # -- experiments runner -------------------------------------------------------------

@@ -81,13 +81,13 @@ def check_xyz(xyz, name="xyz"):
     return a
 
 
-def check_pair(xyz1, xyz2, *, check_second=True):
+def check_pair(xyz1, xyz2, *, check_first=True, check_second=True):
     """Two XYZ images of the same shape (float arrays); else :class:`ParameterError`.
 
-    ``check_second=False``: the second image's values are checked by whoever uses them (a cache that
-    checks an image once, where it makes its L*a*b*), here only its shape.
+    ``check_first=False`` / ``check_second=False``: that image's values are checked by whoever uses them
+    (a cache that checks an image once, where it makes its L*a*b*), here only its shape.
     """
-    a = check_xyz(xyz1, "xyz1")
+    a = check_xyz(xyz1, "xyz1") if check_first else np.asarray(xyz1)
     b = check_xyz(xyz2, "xyz2") if check_second else np.asarray(xyz2)
     if a.shape != b.shape:
         raise ParameterError("xyz2", f"the two images must have the same shape, got {a.shape} and {b.shape}")
