@@ -228,13 +228,9 @@ def child_memory(n, frame, keep):
 
 
 def child_explorer(repeats):
-    """Median engine ms of explorer moves on the default scene and a 1024^2 tiled one, in a process whose heap
-    is set as ``camsim serve`` sets the explorer server's (:func:`camsim_core.cli.serve.tune_heap_for_serving`)."""
+    """Median engine ms of explorer moves on the default scene and a 1024^2 tiled one."""
     import camsim_core as cs
     from camsim_core.cache import Pipeline, Processing
-    from camsim_core.cli.serve import tune_heap_for_serving
-
-    tune_heap_for_serving()
 
     camera = cs.load_camera("kodak-dcs200-ir").replace(distance=3.32, exposure=0.1, f_stop=11.0, noise_sigma=0.0, seed=0)
     # what the explorer computes with S-CIELAB shown: that map alone (processing_from_params)

@@ -117,39 +117,6 @@ def test_closed_sessions_cycles_are_collected_and_the_heaps_trimmed_once_the_clo
     assert trims == [0] and gone() is None
 
 
-def test_the_servers_heap_keeps_dynamic_mapping_of_large_arrays_when_it_sets_trimming(monkeypatch):
-    """glibc stops adapting its mmap threshold once the trim threshold or top pad is set; left at its 128 KiB
-    start, every image-sized temporary would be mapped and unmapped (the engine's time per change doubled).
-    So the server sets it too: images (16 MiB at 1012 x 1317 x 3 float32) come from the heap, arrays of
-    32 MiB or more are mapped alone; two arenas."""
-    import ctypes
-
-    from camsim_core.cli import serve
-
-    calls = []
-
-    class Libc:
-        def mallopt(self, option, value):
-            calls.append((option, value))
-            return 1
-
-    monkeypatch.setattr(ctypes, "CDLL", lambda name: Libc())
-    assert isinstance(serve.tune_heap_for_serving(), Libc)
-    options = dict(calls)
-    assert len(options) == len(calls)  # each option set once
-    M_TRIM_THRESHOLD, M_TOP_PAD, M_MMAP_THRESHOLD, M_ARENA_MAX = -1, -2, -3, -8
-    assert options[M_ARENA_MAX] == 2
-    assert M_TRIM_THRESHOLD in options and M_TOP_PAD in options
-    assert 16 << 20 < options[M_MMAP_THRESHOLD] <= 32 << 20  # glibc's largest dynamic value, and its cap
-    assert options[M_TRIM_THRESHOLD] >= 2 * options[M_MMAP_THRESHOLD]
-
-    def missing(name):
-        raise OSError(f"{name}: cannot open shared object file")
-
-    monkeypatch.setattr(ctypes, "CDLL", missing)  # not glibc: nothing to set, no error
-    assert serve.tune_heap_for_serving() is None
-
-
 def test_startup_objects_are_frozen_after_garbage_is_collected():
     """``camsim serve`` freezes what start-up made (later collections skip it), collecting first: garbage
     present at that moment is freed, not frozen for the life of the server."""

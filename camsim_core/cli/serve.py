@@ -145,9 +145,8 @@ def allowed_origins(address, port, extra=()):
     return sorted(origins)
 
 
-def tune_heap_for_serving():
-    """Set glibc's heap for a server of explorer sessions (glibc only; elsewhere a no-op): returns libc, for the
-    trims that give a closed session's memory back, or None.
+def _return_freed_memory_to_the_system():
+    """Let a closed session's memory go back to the operating system (glibc only; elsewhere a no-op).
 
     Each session computes in threads of its own, and glibc gives threads heaps
     (arenas) of their own whose freed pages it seldom returns: a server kept
@@ -155,28 +154,14 @@ def tune_heap_for_serving():
     of every heap after a session is released (``app.main.AFTER_RELEASE``),
     again after a full collection once the closes stop
     (:func:`_collect_and_trim_once_quiet`).
-
-    Between those trims the heap keeps up to 512 MiB free at its top (and
-    grows by 64 MiB at a time) instead of giving pages back after every
-    large array: glibc's own trimming handed back and took again ~6 MiB of
-    pages on each change of a 1024^2 scene with S-CIELAB shown (1,300-1,800
-    page faults, 12-20 ms of system time a change; with these settings
-    110-150 faults and 3-7 ms, the change's wall time 2-10 ms less in 3 of 4
-    interleaved runs). Arrays of 32 MiB or more are still mapped on their
-    own and unmapped when freed, as glibc's default ends up doing: a
-    12-megapixel image's arrays go back to the system as soon as they are
-    let go. (A low fixed mmap threshold would return memory too, but
-    doubled the engine's time per change: every large temporary array
-    mapped and unmapped.)
+    A fixed mmap threshold would return memory too, but doubled the engine's
+    time per change (every large temporary array mapped and unmapped).
     """
     try:
         import ctypes
 
         libc = ctypes.CDLL("libc.so.6")
         libc.mallopt(-8, 2)  # M_ARENA_MAX
-        libc.mallopt(-3, 32 << 20)  # M_MMAP_THRESHOLD
-        libc.mallopt(-1, 512 << 20)  # M_TRIM_THRESHOLD
-        libc.mallopt(-2, 64 << 20)  # M_TOP_PAD
         return libc
     except (OSError, AttributeError):
         return None
@@ -286,7 +271,7 @@ def run(args):
         scene = args.scene if str(args.scene).lower() == scene.name else scene
     _log_to_stderr()
     _quiet_closed_page_writes()
-    libc = tune_heap_for_serving()
+    libc = _return_freed_memory_to_the_system()
     main = _import_app()
     import panel as pn
 
