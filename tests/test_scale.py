@@ -172,12 +172,21 @@ def test_interpolating_resample_rounds_each_value_once_in_float32(camera):
     np.testing.assert_array_equal(out, (p0.astype(np.float64) + p1.astype(np.float64)).astype(np.float32))
 
 
+@pytest.mark.parametrize("shape, dtype, view", [
+    ((23, 17), np.float64, False),
+    ((2, 3), np.float64, False),  # narrower than the 4-wide tile: only its first columns
+    ((1403, 1500), np.float32, False),  # over 2**21 values: two blocks of rows on the cores, the second from row 701, not a whole tile down
+    ((40, 31), np.float32, True),  # a strided view, as a caller may pass
+])
 @pytest.mark.parametrize("tile", [BAYER["GRBG"], np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]]), np.array([[2, 0, 1, 1]])])
-def test_strided_mosaic_equals_index_map(camera, tile):
-    data = np.random.default_rng(2).uniform(0, 9, (23, 17, 3))
+def test_mosaic_equals_index_map(camera, tile, shape, dtype, view):
+    data = np.random.default_rng(2).uniform(0, 9, shape + (3,)).astype(dtype)
+    if view:
+        data = np.random.default_rng(3).uniform(0, 9, (2 * shape[0], shape[1], 5)).astype(dtype)[::2, :, 1:4]
     img = image_from_scene(Scene(np.ones((2, 2, 31)), W31)).replace(data=data, space="sensor")
     out = mosaic(camera.replace(mosaic=tile), img).data
-    ref = np.take_along_axis(data, tile_index_map(tile, (23, 17))[:, :, None], axis=2)[:, :, 0]
+    ref = np.take_along_axis(data, tile_index_map(tile, shape)[:, :, None], axis=2)[:, :, 0]
+    assert out.dtype == dtype and out.shape == shape
     np.testing.assert_array_equal(out, ref)
 
 

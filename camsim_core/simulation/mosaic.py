@@ -6,6 +6,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..image import check_tile
+from .._compiled import compiled
 from .._parallel import CORES, run_blocks, split
 from ._stage import stage
 
@@ -40,24 +41,42 @@ def tile_index_map(tile, shape):
 
 
 def _one_plane(planes, tile):
-    """planes (H, W, K) -> (H, W): at each tile position, a strided copy of the plane it samples.
+    """planes (H, W, K) -> (H, W): at each pixel, the plane its tile position names.
 
     The same values as ``take_along_axis`` with the repeated index map,
-    without building that map (n x m strided copies instead of a full-frame
-    gather).
+    without building that map: :func:`_mosaic_rows` on blocks of rows.
     """
     H, W = planes.shape[:2]
     out = np.empty((H, W), planes.dtype)
-    n, m = tile.shape
-
-    def copy(a, b):  # rows a..b, a a whole number of tiles down: the tile's phase is the image's
-        for py in range(min(n, b - a)):
-            for px in range(min(m, W)):
-                out[a + py : b : n, px::m] = planes[a + py : b : n, px::m, tile[py, px]]
-
-    # blocks of whole tile rows on the machine's cores (numpy's copies release the GIL)
-    run_blocks(copy, split(-(-H // n), CORES) * n, values=out.size)
+    kernel = _mosaic_kernel()
+    # blocks of rows on the machine's cores (the kernel releases the GIL)
+    run_blocks(lambda a, b: kernel(planes, tile, a, b, out), split(H, CORES), values=out.size)
     return out
+
+
+def _mosaic_rows(planes, tile, start, stop, out):
+    """``out[y, x] = planes[y, x, tile[y % n, x % m]]`` for rows ``start..stop``; ``tile`` (n, m) of valid plane indices.
+
+    Compiled by numba (:func:`_mosaic_kernel`), one image row at a time: the
+    row's K planes (W K values) stay in the core's cache while each tile
+    column's pixels are copied, so the stage reads its input once. numpy's
+    strided copies (one per tile position, ``out[py::n, px::m] =
+    planes[py::n, px::m, k]``) read every row once per tile column. Bayer,
+    float32, two cores, medians of 15 runs in two interleaved rounds:
+    3000 x 4000 17.8-19.0 -> 11.4-11.6 ms, 1012 x 1317 (the explorer's
+    1024^2 frame) 1.6 -> 1.1 ms, 375 x 500 0.15 either way; the same values.
+    """
+    n, m = tile.shape
+    W = planes.shape[1]
+    for y in range(start, stop):
+        ty = y % n
+        for px in range(min(m, W)):
+            k = tile[ty, px]
+            for x in range(px, W, m):
+                out[y, x] = planes[y, x, k]
+
+
+_mosaic_kernel = compiled(_mosaic_rows)
 
 
 @stage("mosaic")
