@@ -492,7 +492,9 @@ class ResultsView:
     refit to the whole image; otherwise zoom and pan are kept.
     """
 
-    TITLES = {"raw": f"<span title='{_LINEAR_NOTE}'>Raw mosaic (each pixel in its sensor's colour)</span>", "demosaiced": "Demosaiced",
+    TITLES = {"raw": f"<span title='{_LINEAR_NOTE}'>Raw mosaic (each pixel in its sensor's colour)</span>",
+              "raw_full": f"<span title='{_LINEAR_NOTE}'>Raw, no mosaic (every sensor at every pixel)</span>",
+              "demosaiced": "Demosaiced",
               "rendered": "Rendered (the camera's image on the monitor)",
               "ideal": "Ideal image (what a human observer would see)"}
     KEYS = ("raw", "demosaiced", "rendered", "ideal", "de")
@@ -772,6 +774,7 @@ class ResultsView:
         if self._changed("raw", raw):
             view = self._memo("raw_view", raw, self._raw_view)
             self._show("raw", view["image"], names=view["names"], value=view["value"], sensor=view["sensor"])
+        self.labels["raw"].object = self.TITLES["raw" if raw.mosaiced else "raw_full"]
         skipped = "demosaic" in getattr(res, "skipped", {})
         self.labels["demosaiced"].object = ("Demosaicing not needed (full-colour image): the sensor planes"
                                             if skipped else f"<span title='{_LINEAR_NOTE}'>Demosaiced "

@@ -362,11 +362,21 @@ def test_full_colour_cameras_run_without_demosaicing(page, camera, mosaic):
                       and not s["computing"])
     assert s["skipped"] == ["demosaic"] and s["tile"] is None and s["mean_de"] is not None
     assert page.alert_text() == ""
-    page.page.wait_for_function("""() => { function deep(root) { for (const el of root.querySelectorAll('*')) {
-        if (el.tagName === 'LABEL' && el.textContent.includes('not needed')) return true;
-        if (el.shadowRoot && deep(el.shadowRoot)) return true; } return false; } return deep(document); }""",
-                                timeout=10000)
+    page.page.wait_for_function(_SHOWS_TEXT, arg=["LABEL", "not needed"], timeout=10000)
     assert page.page.locator(".w-demosaic select").first.is_disabled()
+    # the raw view's title says what it shows, and says it again when a mosaic is back
+    page.page.wait_for_function(_SHOWS_TEXT, arg=["*", "Raw, no mosaic"], timeout=10000)
+    page.select("w-camera", "kodak-dcs200-ir")
+    page.select("w-mosaic", "GRBG")
+    page.wait_for(lambda s: s["tile"] is not None and not s["computing"])
+    page.page.wait_for_function(_SHOWS_TEXT, arg=["*", "Raw mosaic"], timeout=10000)
+    assert not page.page.evaluate(_SHOWS_TEXT, ["*", "Raw, no mosaic"])
+
+
+#: Whether an element (a tag name, or "*") anywhere in the page, shadow roots included, shows a text.
+_SHOWS_TEXT = """([tag, text]) => { function deep(root) { for (const el of root.querySelectorAll('*')) {
+    if ((tag === '*' || el.tagName === tag) && el.children.length === 0 && el.textContent.includes(text)) return true;
+    if (el.shadowRoot && deep(el.shadowRoot)) return true; } return false; } return deep(document); }"""
 
 
 def test_a_refused_combination_puts_the_widgets_back(page):

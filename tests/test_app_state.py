@@ -302,9 +302,17 @@ def test_a_combination_refused_by_the_engine_puts_the_parameters_back(state):
                                             ("cie1931", "preset"), ("kodak-dcs200-ir", "none"),
                                             ("gaussian-4", "none")])
 def test_full_colour_cameras_run(state, camera, mosaic):
+    view = ResultsView(state)
+    assert "Raw mosaic" in view.labels["raw"].object
     state.param.update(camera=camera, mosaic=mosaic)
     assert state.message == "" and state.camera == camera and state.mosaic == mosaic
     assert state.result.raw.mosaiced is False and "demosaic" in state.result.skipped
+    view.update()  # the raw view's title says what it shows: every sensor at every pixel, no mosaic
+    assert "no mosaic" in view.labels["raw"].object and "Raw mosaic" not in view.labels["raw"].object
+    assert "not needed" in view.labels["demosaiced"].object
+    state.param.update(camera="kodak-dcs200-ir", mosaic="GRBG")
+    view.update()
+    assert "Raw mosaic" in view.labels["raw"].object
 
 
 def test_gaussian_sensors_are_named_by_their_peak(state):
