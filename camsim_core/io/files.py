@@ -21,7 +21,7 @@ from pathlib import Path, PurePosixPath, PureWindowsPath
 
 from ..errors import FileFormatError
 
-__all__ = ["check_regular", "read_regular", "member_path", "MAX_TEXT_BYTES"]
+__all__ = ["check_regular", "read_regular", "open_regular", "member_path", "MAX_TEXT_BYTES"]
 
 #: Largest text file (``.Simg``, ``.Scam``, ``.Smon``, ``.dat``) a reader accepts, bytes.
 MAX_TEXT_BYTES = 16 * 2**20
@@ -79,6 +79,25 @@ def read_regular(path, *, max_bytes=MAX_TEXT_BYTES, shown=None):
         raise FileFormatError(shown, f"cannot read: {exc.strerror or exc}") from None
     finally:
         os.close(fd)
+
+
+def open_regular(path, shown=None):
+    """A binary file object of the regular file ``path``, opened non-blocking and checked on its descriptor.
+
+    For readers that hand a file object to a library (h5py, scipy.io): the
+    library then never opens anything by name, so a FIFO or device swapped
+    in after a check is refused, not read.
+    """
+    shown = path if shown is None else shown
+    check_regular(path, shown)
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+    except OSError as exc:
+        raise FileFormatError(shown, f"cannot read: {exc.strerror or exc}") from None
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise FileFormatError(shown, "not a regular file (a folder, FIFO or device is never read)")
+    return os.fdopen(fd, "rb")
 
 
 def member_path(folder, name, *, shown, field):
