@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from ..errors import CamsimError, FileFormatError
+from .guard import reader_errors
 
 __all__ = ["UploadLimits", "load_upload", "DEFAULT_LIMITS", "UPLOAD_KINDS"]
 
@@ -92,24 +93,33 @@ def load_upload(filename, content, limits=DEFAULT_LIMITS):
     :class:`~camsim_core.errors.FileFormatError` naming the user's file when
     the upload is not a scene or exceeds ``limits``.
     """
-    name = PurePosixPath(str(filename or "upload").replace("\\", "/")).name or "upload"
+    text = str(filename or "upload")
+    if any(ord(c) < 32 or ord(c) == 127 for c in text):
+        raise FileFormatError("upload", "the file name holds a NUL or control character; rename the file")
+    if len(text) > 255:
+        raise FileFormatError("upload", f"the file name is {len(text)} characters long, more than the 255 allowed")
+    name = PurePosixPath(text.replace("\\", "/")).name or "upload"
     suffix = PurePosixPath(name).suffix.lower()
     if suffix not in _SUFFIXES:
         raise FileFormatError(name, f"upload a scene as {UPLOAD_KINDS}")
     size = len(content)
     if size > limits.max_upload_bytes:
         raise FileFormatError(name, f"is {_mb(size)}, more than the {_mb(limits.max_upload_bytes)} an upload may be")
+    if suffix == ".mat":  # read from memory: nothing written, no path for names inside the file to resolve against
+        from ..scene.matlab import read_mat
+
+        with reader_errors(name, "a MATLAB file"):
+            return read_mat(name, content=content, shown=name, max_values=limits.max_scene_values)
     tmp = Path(tempfile.mkdtemp(prefix="camsim-upload-"))
     try:
-        if suffix == ".npz":
-            return _load_npz(tmp, name, content, limits)
-        if suffix != ".zip":
-            return _load_single(tmp, name, suffix, content, limits)
-        return _load_zip(tmp, name, content, limits)
+        with reader_errors(name):
+            if suffix == ".npz":
+                return _load_npz(tmp, name, content, limits)
+            if suffix != ".zip":
+                return _load_single(tmp, name, suffix, content, limits)
+            return _load_zip(tmp, name, content, limits)
     except CamsimError as exc:
         raise _scrubbed(exc, tmp, name) from None
-    except (OSError, MemoryError, RecursionError) as exc:
-        raise FileFormatError(name, f"could not be read ({type(exc).__name__})") from None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
@@ -135,13 +145,9 @@ def _load_npz(tmp, name, content, limits):
 
 
 def _load_single(tmp, name, suffix, content, limits):
-    """A ``.mat`` or a photo: written under the user's file name, read with the scene-size limit."""
+    """A photo: written under the user's file name, read with the scene-size limit."""
     path = tmp / name
     path.write_bytes(content)
-    if suffix == ".mat":
-        from ..scene.matlab import read_mat
-
-        return read_mat(path, max_values=limits.max_scene_values)
     from ..scene.photo import read_photo
 
     return read_photo(path, max_values=limits.max_scene_values)

@@ -11,6 +11,7 @@ from ..datasets import SIMTOOLBOX
 from ..datasets.illuminants import illuminant as named_illuminant
 from ..errors import FileFormatError, ParameterError
 from ..io.files import check_regular, member_path, read_regular
+from ..io.guard import reader_errors
 from ..io.simtoolbox import checked_wavelengths, group_number, group_numbers, read_tagged, wavelength_sampling
 from ..spectra import Spectrum, sampling_wavelengths
 from .scene import Scene, check_radiance
@@ -48,6 +49,11 @@ def load_scene(name_or_path, *, negative="error"):
     if isinstance(name_or_path, Scene):
         return name_or_path
     key = str(name_or_path)
+    with reader_errors(key):  # the last line of defence: no reader leaks a traceback
+        return _load_scene(key, negative)
+
+
+def _load_scene(key, negative):
     low = key.lower()
     if low in _SHIPPED:
         if low not in _CACHE:
@@ -89,7 +95,7 @@ def load_scene(name_or_path, *, negative="error"):
     if suffix == ".mat":
         from .matlab import read_mat
 
-        return read_mat(path, negative=negative)
+        return read_mat(path, negative=negative, shown=key)
     if suffix in PHOTO_SUFFIXES:
         from .photo import read_photo
 

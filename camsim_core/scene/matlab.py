@@ -35,14 +35,16 @@ H x W x N cube as (N, W, H). A v7.3 cube whose *last* axis is the band axis
 
 from __future__ import annotations
 
-import struct
-import zlib
+import io
+import os
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import FileFormatError
-from ..io.files import check_regular
+from ..errors import CamsimError, FileFormatError
+from ..io.files import check_regular, open_regular
+from ..io.hdf5 import check_dataset, open_hdf5
+from ..io.matv5 import check_v5
 from ..spectra import Spectrum, sampling_wavelengths
 from ._intake import MAX_SCENE_VALUES, check_scene_size, finish_scene, photons_to_radiance
 
@@ -57,66 +59,52 @@ _CUBES = (("rad", "ICVL"), ("cube", "ARAD"), ("ref", "Harvard"))
 _WAVELENGTH_NAMES = ("bands", "wavelengths", "wavelength", "wave", "wl")
 
 
-def _is_hdf5(path):
-    with open(path, "rb") as f:
-        head = f.read(2048 + 8)
+def _is_hdf5(source):
+    head = bytes(source[: 2048 + 8]) if isinstance(source, (bytes, bytearray, memoryview)) else None
+    if head is None:
+        with open_regular(source) as f:
+            head = f.read(2048 + 8)
     return any(head[o : o + 8] == _HDF5_SIGNATURE for o in (0, 512, 1024, 2048))
 
 
-def _v5_uncompressed_bytes(path):
-    """Uncompressed length of a v5 file's data elements, refusing more than :data:`MAX_V5_BYTES`."""
-    total = 0
-    with open(path, "rb") as f:
-        header = f.read(128)
-        if len(header) < 128 or not header.startswith(b"MATLAB"):
-            raise FileFormatError(path, "not a MATLAB .mat file (no 'MATLAB' header)")
-        order = "<" if header[126:128] == b"IM" else ">"
-        while True:
-            tag = f.read(8)
-            if len(tag) < 8:
-                break
-            dtype, nbytes = struct.unpack(order + "II", tag)
-            if dtype == 15:  # miCOMPRESSED: a zlib stream holding one data element
-                d = zlib.decompressobj()
-                left = nbytes
-                while left > 0:
-                    chunk = f.read(min(left, 1 << 20))
-                    if not chunk:
-                        raise FileFormatError(path, "truncated compressed variable")
-                    left -= len(chunk)
-                    data = chunk
-                    while data:
-                        try:
-                            out = d.decompress(data, 1 << 24)
-                        except zlib.error as exc:
-                            raise FileFormatError(path, f"corrupt compressed variable ({exc})") from None
-                        total += len(out)
-                        data = d.unconsumed_tail
-                        if total > MAX_V5_BYTES:
-                            raise FileFormatError(path, f"variables expand to more than {MAX_V5_BYTES} bytes; too large a scene")
-            else:
-                total += nbytes
-                f.seek(nbytes + (-nbytes % 8), 1)
-            if total > MAX_V5_BYTES:
-                raise FileFormatError(path, f"variables hold more than {MAX_V5_BYTES} bytes; too large a scene")
-    return total
+def _v5_budget(max_values):
+    """Most bytes a v5 file's variables may expand to: the scene bound as float64 plus 16 MiB for the rest."""
+    return MAX_V5_BYTES if max_values is None else min(MAX_V5_BYTES, int(max_values) * 8 + 16 * 2**20)
 
 
 class _V5:
-    """Variables of a v5 file, read on demand with scipy.io.loadmat (structs as attribute objects)."""
+    """Variables of a v5 file, vetted whole (:func:`~camsim_core.io.matv5.check_v5`) before scipy reads any.
+
+    scipy.io.loadmat reads from memory (an upload's bytes) or from a memory
+    map of the checked regular file; structs come as attribute objects.
+    """
 
     transposed = False
-    max_values = None
 
-    def __init__(self, path):
+    def __init__(self, source, shown, max_values):
+        import mmap
+
         from scipy.io import whosmat
 
-        self.path = path
-        _v5_uncompressed_bytes(path)
+        self.shown = shown
+        self.max_values = max_values
+        self._file = None
+        if isinstance(source, (bytes, bytearray, memoryview)):
+            self.buf = memoryview(bytes(source))
+        else:
+            self._file = open_regular(source, shown)
+            size = os.fstat(self._file.fileno()).st_size
+            if size < 128:
+                self.close()
+                raise FileFormatError(shown, "not a MATLAB .mat file (shorter than its 128-byte header)")
+            self.buf = mmap.mmap(self._file.fileno(), 0, access=mmap.ACCESS_READ)
+        largest = check_v5(self.buf, shown=shown, max_bytes=_v5_budget(max_values))
+        check_scene_size(shown, (largest,), "the largest array", max_values)
         try:
-            self.shapes = {name: shape for name, shape, _ in whosmat(str(path))}
+            self.shapes = {name: shape for name, shape, _ in whosmat(io.BytesIO(self.buf) if self._file is None else
+                                                                     _MapReader(self.buf))}
         except Exception as exc:  # scipy raises several types on a bad file
-            raise FileFormatError(path, f"not a readable MATLAB v5 file ({exc})") from None
+            raise FileFormatError(shown, f"not a readable MATLAB v5 file ({type(exc).__name__})") from None
         self._loaded = {}
 
     def names(self):
@@ -126,34 +114,83 @@ class _V5:
         from scipy.io import loadmat
 
         if name not in self._loaded:
+            stream = io.BytesIO(self.buf) if self._file is None else _MapReader(self.buf)
             try:
-                m = loadmat(str(self.path), variable_names=[name], squeeze_me=True, struct_as_record=False)
+                m = loadmat(stream, variable_names=[name], squeeze_me=True, struct_as_record=False)
             except Exception as exc:
-                raise FileFormatError(self.path, f"cannot read variable {name!r} ({exc})") from None
+                raise FileFormatError(self.shown, f"cannot read variable {name!r} ({type(exc).__name__})") from None
             self._loaded[name] = m[name]
         return self._loaded[name]
 
     def field(self, obj, name):
-        return getattr(obj, name, None) if obj is not None else None
+        return getattr(obj, name) if name in getattr(obj, "_fieldnames", ()) else None
 
-    def array(self, obj):
-        return None if obj is None else np.asarray(obj)
+    def array(self, obj, what):
+        if obj is None:
+            return None
+        a = np.asarray(obj)
+        if a.dtype.kind not in "biuf":
+            raise FileFormatError(self.shown, f"{what} holds {_kind(obj)}, expected numbers")
+        return a
+
+    def close(self):
+        if self._file is not None:
+            if isinstance(getattr(self, "buf", None), __import__("mmap").mmap):
+                self.buf.close()
+            self._file.close()
+            self._file = None
+
+
+class _MapReader(io.RawIOBase):
+    """A read-only, seekable binary stream over a memory map (scipy.io reads it as a file)."""
+
+    def __init__(self, buf):
+        self._buf, self._pos = buf, 0
+
+    def readable(self):
+        return True
+
+    def seekable(self):
+        return True
+
+    def readinto(self, b):
+        n = min(len(b), max(0, len(self._buf) - self._pos))
+        b[:n] = self._buf[self._pos : self._pos + n]
+        self._pos += n
+        return n
+
+    def seek(self, offset, whence=0):
+        self._pos = {0: 0, 1: self._pos, 2: len(self._buf)}[whence] + offset
+        return self._pos
+
+    def tell(self):
+        return self._pos
+
+
+def _kind(obj):
+    """What a non-numeric variable or field is, in MATLAB's words."""
+    if hasattr(obj, "_fieldnames"):
+        return "a struct"
+    if isinstance(obj, str):
+        return "text"
+    return f"{np.asarray(obj).dtype} values"
 
 
 class _H5:
-    """Variables of a v7.3 (HDF5) file through h5py; shapes checked before any dataset is read."""
+    """Variables of a v7.3 (HDF5) file, vetted whole by :func:`~camsim_core.io.hdf5.open_hdf5`.
+
+    Opened from memory or a descriptor (never by a name that relative paths
+    in the file could resolve against); shapes checked before any dataset
+    is read, and each dataset's storage checked again right before reading.
+    """
 
     transposed = True
-    max_values = None
 
-    def __init__(self, path):
-        import h5py
-
-        self.path = path
-        try:
-            self.f = h5py.File(str(path), "r")
-        except Exception as exc:
-            raise FileFormatError(path, f"not a readable MATLAB v7.3 (HDF5) file ({exc})") from None
+    def __init__(self, source, shown, max_values):
+        self.shown = shown
+        self.max_values = max_values
+        self._ctx = open_hdf5(source, shown=shown)
+        self.f = self._ctx.__enter__()
 
     def names(self):
         return {k for k in self.f.keys() if not k.startswith("#")}
@@ -168,126 +205,157 @@ class _H5:
             return obj[name]
         return None
 
-    def array(self, obj):
+    def array(self, obj, what):
         import h5py
 
         if obj is None:
             return None
         if not isinstance(obj, h5py.Dataset):
-            raise FileFormatError(self.path, f"{obj.name} is a group, expected an array")
+            raise FileFormatError(self.shown, f"{what} is a group (a struct), expected an array")
         if obj.dtype.kind not in "biuf":
-            raise FileFormatError(self.path, f"{obj.name} holds {obj.dtype}, expected numbers")
-        check_scene_size(self.path, obj.shape or (1,), obj.name, self.max_values)
+            raise FileFormatError(self.shown, f"{what} holds {obj.dtype}, expected numbers")
+        check_scene_size(self.shown, obj.shape or (1,), what, self.max_values)
+        check_dataset(obj, self.shown)
         return obj[()]
 
     def close(self):
-        self.f.close()
+        if self._ctx is not None:
+            self._ctx.__exit__(None, None, None)
+            self._ctx = None
 
 
-def _vector(src, obj):
-    a = src.array(obj)
-    return None if a is None else np.asarray(a, float).ravel()
+def _vector(src, obj, what):
+    """A finite float vector, or None when the variable or field is absent."""
+    a = src.array(obj, what)
+    if a is None:
+        return None
+    v = np.asarray(a, float).ravel()
+    if not np.all(np.isfinite(v)):
+        raise FileFormatError(src.shown, f"{what} holds NaN or infinite values")
+    return v
 
 
-def _scalar(src, obj):
-    v = _vector(src, obj)
-    return None if v is None or v.size == 0 else float(v[0])
+def _scalar(src, obj, what, *, positive=False):
+    """One finite number (the first of the array), or None when absent or empty."""
+    v = _vector(src, obj, what)
+    if v is None or v.size == 0:
+        return None
+    if positive and not v[0] > 0:
+        raise FileFormatError(src.shown, f"{what} must be a positive number, got {v[0]:g}")
+    return float(v[0])
 
 
 def _cube(src, obj, n_bands, what):
-    """An (H, W, N) float cube from a variable, undoing MATLAB's column-major order in v7.3 files."""
+    """An (H, W, N) numeric cube from a variable, undoing MATLAB's column-major order in v7.3 files."""
     if obj is None:
-        raise FileFormatError(src.path, f"{what} is missing")
+        raise FileFormatError(src.shown, f"{what} is missing")
     if src.transposed:
         shape = tuple(obj.shape) if hasattr(obj, "shape") else ()
-        check_scene_size(src.path, shape or (0,), what, src.max_values)
-        a = src.array(obj)
+        check_scene_size(src.shown, shape or (0,), what, src.max_values)
+        a = src.array(obj, what)
         if a.ndim == 3 and not (n_bands and a.shape[2] == n_bands and a.shape[0] != n_bands):
             a = a.T  # MATLAB's (H, W, N) is stored (N, W, H)
         elif a.ndim == 2:
             a = a.T
     else:
-        a = src.array(obj)
-        check_scene_size(src.path, a.shape or (0,), what, src.max_values)
+        a = src.array(obj, what)
+        check_scene_size(src.shown, a.shape or (0,), what, src.max_values)
     if a.ndim == 2:
         a = a[:, :, None]
-    if a.ndim != 3 or not np.issubdtype(a.dtype, np.number):
-        raise FileFormatError(src.path, f"{what} must be a numeric (H, W, N) array, got shape {a.shape} of {a.dtype}")
+    if a.ndim != 3:
+        raise FileFormatError(src.shown, f"{what} must be an (H, W, N) array, got shape {a.shape}")
     return a
 
 
-def _wavelengths(src, n, default=None, what="wavelengths"):
+def _wavelengths(src, n, default=None):
     for name in _WAVELENGTH_NAMES:
         if name in src.names():
-            w = _vector(src, src.get(name))
+            w = _vector(src, src.get(name), f"variable {name!r}")
             if w.size != n:
-                raise FileFormatError(src.path, f"variable {name!r} has {w.size} wavelengths for {n} bands")
+                raise FileFormatError(src.shown, f"variable {name!r} has {w.size} wavelengths for {n} bands")
             return w
     if default is not None and default.size == n:
         return default
-    raise FileFormatError(src.path, f"no wavelength variable ({', '.join(_WAVELENGTH_NAMES)}) for the {n} bands")
+    raise FileFormatError(src.shown, f"no wavelength variable ({', '.join(_WAVELENGTH_NAMES)}) for the {n} bands")
 
 
 def _isetcam_scene(src, label):
     s = src.get("scene")
     data = src.field(s, "data")
-    wave = _vector(src, src.field(src.field(s, "spectrum"), "wave"))
+    wave = _vector(src, src.field(src.field(s, "spectrum"), "wave"), "scene.spectrum.wave")
     if wave is None:
-        raise FileFormatError(src.path, "ISETCam scene has no spectrum.wave")
+        raise FileFormatError(src.shown, "ISETCam scene has no spectrum.wave")
     photons = _cube(src, src.field(data, "photons"), wave.size, "scene.data.photons")
     if np.issubdtype(photons.dtype, np.integer):  # ISET's compressed storage
-        dmin, dmax = _scalar(src, src.field(data, "dmin")), _scalar(src, src.field(data, "dmax"))
-        depth = _scalar(src, src.field(data, "bitDepth")) or 16
+        dmin = _scalar(src, src.field(data, "dmin"), "scene.data.dmin")
+        dmax = _scalar(src, src.field(data, "dmax"), "scene.data.dmax")
+        depth = _scalar(src, src.field(data, "bitDepth"), "scene.data.bitDepth") or 16
         if dmin is None or dmax is None:
-            raise FileFormatError(src.path, "integer scene.data.photons without data.dmin / data.dmax")
+            raise FileFormatError(src.shown, "integer scene.data.photons without data.dmin / data.dmax")
+        if not (dmax >= dmin and depth == int(depth) and 1 <= depth <= 32):
+            raise FileFormatError(src.shown, f"scene.data: dmin {dmin:g}, dmax {dmax:g}, bitDepth {depth:g}; expected "
+                                             "dmin <= dmax and a bit depth of 1 to 32")
         photons = dmin + (dmax - dmin) * photons.astype(float) / (2.0**depth - 1)
     if photons.shape[2] != wave.size:
-        raise FileFormatError(src.path, f"scene.data.photons has {photons.shape[2]} bands for {wave.size} wavelengths")
-    fov = _scalar(src, src.field(s, "wAngular"))
+        raise FileFormatError(src.shown, f"scene.data.photons has {photons.shape[2]} bands for {wave.size} wavelengths")
+    fov = _scalar(src, src.field(s, "wAngular"), "scene.wAngular", positive=True)
     ar = None if not fov else (photons.shape[1] / fov,) * 2
     illum = None
     il = src.field(s, "illuminant")
     if il is not None:
-        ip = _vector(src, src.field(src.field(il, "data"), "photons"))
-        iw = _vector(src, src.field(src.field(il, "spectrum"), "wave"))
+        ip = _vector(src, src.field(src.field(il, "data"), "photons"), "scene.illuminant.data.photons")
+        iw = _vector(src, src.field(src.field(il, "spectrum"), "wave"), "scene.illuminant.spectrum.wave")
         if ip is not None and iw is not None and ip.size == iw.size:
-            illum = Spectrum(iw, photons_to_radiance(ip, iw), "ISETCam illuminant")
+            illum = _spectrum(src, iw, photons_to_radiance(ip, iw), "ISETCam illuminant", "scene.illuminant")
     name = src.field(s, "name")
-    return dict(data=photons_to_radiance(photons, wave), wavelengths=wave, distance=_scalar(src, src.field(s, "distance")),
-                angular_resolution=ar, illuminant=illum, name=str(name) if isinstance(name, str) else label,
+    return dict(data=photons_to_radiance(photons, wave), wavelengths=wave,
+                distance=_scalar(src, src.field(s, "distance"), "scene.distance", positive=True),
+                angular_resolution=ar, illuminant=illum, name=str(name)[:256] if isinstance(name, str) else label,
                 comments="ISETCam scene (photons converted to W/sr/m^2 per band)")
+
+
+def _spectrum(src, wavelengths, values, name, what):
+    """A :class:`Spectrum`, its own checks reported against the file's field."""
+    try:
+        return Spectrum(wavelengths, values, name)
+    except CamsimError as exc:
+        raise FileFormatError(src.shown, f"{what}: {exc}") from None
 
 
 def _isetcam_multispectral(src, label):
     basis = src.get("basis")
-    wave = _vector(src, src.field(basis, "wave"))
-    b = src.array(src.field(basis, "basis"))
+    wave = _vector(src, src.field(basis, "wave"), "basis.wave")
+    b = src.array(src.field(basis, "basis"), "basis.basis")
     if wave is None or b is None:
-        raise FileFormatError(src.path, "ISETCam multispectral file: 'basis' needs fields 'basis' and 'wave'")
+        raise FileFormatError(src.shown, "ISETCam multispectral file: 'basis' needs fields 'basis' and 'wave'")
     b = np.atleast_2d(np.asarray(b, float))
+    if b.ndim != 2 or not np.all(np.isfinite(b)):
+        raise FileFormatError(src.shown, f"basis.basis must be a finite (wavelengths x functions) matrix, got shape {b.shape}")
     if src.transposed:
         b = b.T
     if b.shape[0] != wave.size and b.shape[1] == wave.size:
         b = b.T
+    if b.shape[0] != wave.size:
+        raise FileFormatError(src.shown, f"basis.basis is {b.shape[0]} x {b.shape[1]} for {wave.size} wavelengths")
     coef = _cube(src, src.get("mcCOEF"), b.shape[1], "mcCOEF")
     if coef.shape[2] != b.shape[1]:
-        raise FileFormatError(src.path, f"mcCOEF has {coef.shape[2]} coefficients per pixel, basis has {b.shape[1]} functions")
+        raise FileFormatError(src.shown, f"mcCOEF has {coef.shape[2]} coefficients per pixel, basis has {b.shape[1]} functions")
     h, w, _ = coef.shape
-    check_scene_size(src.path, (h, w, wave.size), max_values=src.max_values)
+    check_scene_size(src.shown, (h, w, wave.size), max_values=src.max_values)
     photons = (coef.reshape(-1, coef.shape[2]).astype(float) @ b.T).reshape(h, w, wave.size)
     if "imgMean" in src.names():
-        mean = _vector(src, src.get("imgMean"))
+        mean = _vector(src, src.get("imgMean"), "imgMean")
         if mean is not None and mean.size == wave.size:
             photons += mean
-    fov = _scalar(src, src.get("fov")) if "fov" in src.names() else None
+    fov = _scalar(src, src.get("fov"), "fov", positive=True) if "fov" in src.names() else None
     illum = None
     if "illuminant" in src.names():
         il = src.get("illuminant")
-        iw, idata = _vector(src, src.field(il, "wave")), _vector(src, src.field(il, "data"))
+        iw, idata = _vector(src, src.field(il, "wave"), "illuminant.wave"), _vector(src, src.field(il, "data"), "illuminant.data")
         if iw is not None and idata is not None and iw.size == idata.size:
-            illum = Spectrum(iw, idata, "ISETCam illuminant (energy units)")
+            illum = _spectrum(src, iw, idata, "ISETCam illuminant (energy units)", "illuminant")
     return dict(data=photons_to_radiance(np.clip(photons, 0.0, None), wave), wavelengths=wave,
-                distance=_scalar(src, src.get("dist")) if "dist" in src.names() else None,
+                distance=_scalar(src, src.get("dist"), "dist", positive=True) if "dist" in src.names() else None,
                 angular_resolution=None if not fov else (w / fov,) * 2, illuminant=illum, name=label,
                 comments="ISETCam multispectral file (basis x coefficients, photons converted to W/sr/m^2 per band)")
 
@@ -296,7 +364,7 @@ def _dataset_cube(src, var, dataset, label):
     n = None
     for name in _WAVELENGTH_NAMES:
         if name in src.names():
-            n = _vector(src, src.get(name)).size
+            n = _vector(src, src.get(name), f"variable {name!r}").size
             break
     default = _HARVARD_WAVELENGTHS if var == "ref" else _ICVL_ARAD_WAVELENGTHS
     cube = _cube(src, src.get(var), n or 31, var)
@@ -304,19 +372,51 @@ def _dataset_cube(src, var, dataset, label):
     notices = [f"{dataset} cube {var!r} has no absolute unit: values taken as W/sr/m^2 per band"]
     if n is None:
         notices.append(f"no wavelength variable: {dataset}'s {default[0]:g}-{default[-1]:g} nm in 10 nm steps assumed")
-    return dict(data=cube.astype(float), wavelengths=wls, distance=None, angular_resolution=None, illuminant=None,
+    return dict(data=cube, wavelengths=wls, distance=None, angular_resolution=None, illuminant=None,
                 name=label, comments=f"{dataset} hyperspectral cube", notices=notices)
 
 
-def read_mat(path, *, negative="error", max_values=None):
+def read_mat(path, *, negative="error", max_values=None, content=None, shown=None):
     """Read a MATLAB ``.mat`` hyperspectral scene (see the module docstring for the variables).
 
-    ``max_values`` tightens the bound on every array's size.
+    Parameters
+    ----------
+    path : path-like
+        The file; with ``content``, only its name (for the label and messages).
+    negative : {"error", "clip"}
+        What to do with negative radiances.
+    max_values : int, optional
+        Tighter bound on every array's values (an upload's limit).
+    content : bytes, optional
+        The file's bytes (an upload): read from memory, no file is opened.
+    shown : str, optional
+        The name messages give the file (default: ``path`` as given).
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    FileFormatError
+        Naming ``shown``, for any file that is not such a scene, or that
+        reaches outside itself (HDF5 external storage, links, virtual
+        datasets, plugin filters: :mod:`camsim_core.io.hdf5`).
+
+    Examples
+    --------
+    >>> import io, numpy as np, scipy.io
+    >>> buf = io.BytesIO()
+    >>> scipy.io.savemat(buf, {"rad": np.ones((2, 3, 31)), "bands": np.arange(400, 701, 10)})
+    >>> read_mat("cube.mat", content=buf.getvalue()).shape
+    (2, 3, 31)
     """
     path = Path(path)
-    check_regular(path)
-    src = _H5(path) if _is_hdf5(path) else _V5(path)
-    src.max_values = max_values
+    shown = str(path) if shown is None else str(shown)
+    source = path if content is None else content
+    if content is None:
+        check_regular(path, shown)
+    src = _H5(source, shown, max_values) if _is_hdf5(source) else _V5(source, shown, max_values)
     try:
         names = src.names()
         label = path.stem
@@ -328,11 +428,11 @@ def read_mat(path, *, negative="error", max_values=None):
             found = [(v, d) for v, d in _CUBES if v in names]
             if not found:
                 raise FileFormatError(
-                    path, f"no hyperspectral variable found (variables: {', '.join(sorted(names)) or 'none'}); expected "
+                    shown, f"no hyperspectral variable found (variables: {', '.join(sorted(names)) or 'none'}); expected "
                     "'rad' (ICVL), 'cube' (ARAD), 'ref' (Harvard), an ISETCam 'scene' struct, or 'mcCOEF' with 'basis'")
             fields = _dataset_cube(src, *found[0], label)
+        notices = fields.pop("notices", [])
+        return finish_scene(shown, fields.pop("data"), fields.pop("wavelengths"), notices=notices, negative=negative,
+                            **fields)
     finally:
-        if isinstance(src, _H5):
-            src.close()
-    notices = fields.pop("notices", [])
-    return finish_scene(path, fields.pop("data"), fields.pop("wavelengths"), notices=notices, negative=negative, **fields)
+        src.close()
