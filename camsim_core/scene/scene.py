@@ -10,7 +10,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..spectra import Spectrum
 
-__all__ = ["Scene", "check_radiance", "radiance_dtype", "scale_light"]
+__all__ = ["Scene", "check_radiance", "radiance_dtype", "scale_light", "WAVELENGTH_RANGE"]
 
 
 def radiance_dtype(data):
@@ -55,6 +55,16 @@ def _row_blocks(a, target=1 << 22):
     return (a[i : i + rows] for i in range(0, a.shape[0], rows))
 
 
+#: Wavelengths (nm) a scene may sample: far ultraviolet to thermal infrared. A file claiming 0 nm, a negative
+#: wavelength or 2**31 nm is a broken file, not a scene.
+WAVELENGTH_RANGE = (100.0, 20000.0)
+
+
+def _span(w):
+    bad = w[~np.isfinite(w) | (w < WAVELENGTH_RANGE[0]) | (w > WAVELENGTH_RANGE[1])]
+    return f"{bad.size} outside (e.g. {bad[0]:g})" if bad.size else f"{w.min():g}-{w.max():g}"
+
+
 @dataclass(frozen=True, eq=False)
 class Scene:
     """A calibrated hyperspectral image.
@@ -67,7 +77,7 @@ class Scene:
         (the simulation then runs in single precision), anything else
         becomes float64. A read-only array is kept as it is (no copy).
     wavelengths : ndarray (N,)
-        nm, strictly increasing.
+        nm, finite, strictly increasing, within :data:`WAVELENGTH_RANGE`.
     distance : float
         m, from the hyperspectral camera to the scene.
     angular_resolution : tuple (x, y)
@@ -97,6 +107,9 @@ class Scene:
         w = np.asarray(self.wavelengths, float).ravel()
         if w.size != data.shape[2]:
             raise ParameterError(f"{where} wavelengths", f"{w.size} wavelengths for {data.shape[2]} planes")
+        if not np.all(np.isfinite(w)) or np.any(w < WAVELENGTH_RANGE[0]) or np.any(w > WAVELENGTH_RANGE[1]):
+            raise ParameterError(f"{where} wavelengths", f"must be finite, from {WAVELENGTH_RANGE[0]:g} to "
+                                                         f"{WAVELENGTH_RANGE[1]:g} nm, got {_span(w)}")
         if w.size > 1 and np.any(np.diff(w) <= 0):
             raise ParameterError(f"{where} wavelengths", "must be strictly increasing")
         if not np.isfinite(self.distance) or self.distance <= 0:
