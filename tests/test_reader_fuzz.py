@@ -64,8 +64,9 @@ def _flip_bytes(data, rng):
 
 
 def _check_scene(s):
-    assert np.all(np.isfinite(s.data)) and s.data.min() >= 0 and s.data.ndim == 3 and min(s.data.shape) >= 1
-    assert np.all(np.diff(s.wavelengths) > 0) and s.distance > 0
+    from fuzz_uploads import check_scene
+
+    check_scene(s)
 
 
 def _check_camera(c):
@@ -185,3 +186,23 @@ def test_reader_fuzz(sources, tmp_path, capsys):
     for f, c in counts.items():
         assert sum(c.values()) == COUNT
         assert c["error"] > 0, f"{f}: no mutation was refused: the fuzzer does not reach the checks"
+
+
+UPLOAD_COUNT = 1500 if FULL else 30
+
+
+@pytest.mark.parametrize("fmt", ["mat5", "mat73", "zip"])
+def test_upload_fuzz(fmt, capsys):
+    """MATLAB v5 / v7.3 files and zipped uploads (.Simg, ENVI, band PNGs, .npz, .mat inside), in a child process:
+    no raw traceback, no invalid scene, no crash of the interpreter, no hang (see tests/fuzz_uploads.py)."""
+    from fuzz_uploads import fuzz as fuzz_uploads
+
+    outcomes, signatures = fuzz_uploads(fmt, UPLOAD_COUNT)
+    with capsys.disabled():
+        print(f"\nupload fuzz {fmt}, {UPLOAD_COUNT} cases: " + ", ".join(f"{k} {v}" for k, v in sorted(outcomes.items())))
+        for sig, n in signatures.most_common():
+            print(f"  {n:5d}  {sig}")
+    assert sum(outcomes.values()) == UPLOAD_COUNT
+    bad = {k: v for k, v in outcomes.items() if k not in ("loaded", "error")}
+    assert not bad, f"{fmt}: {bad}; signatures: {dict(signatures)}"
+    assert outcomes["error"] > 0 and outcomes["loaded"] > 0, "the fuzzer reaches neither the checks nor a valid scene"
