@@ -33,7 +33,7 @@ from pathlib import Path, PurePosixPath
 from ..errors import CamsimError, FileFormatError
 from .guard import reader_errors
 
-__all__ = ["UploadLimits", "load_upload", "DEFAULT_LIMITS", "UPLOAD_KINDS"]
+__all__ = ["UploadLimits", "load_upload", "upload_name", "DEFAULT_LIMITS", "UPLOAD_KINDS"]
 
 
 @dataclass(frozen=True)
@@ -56,6 +56,13 @@ class UploadLimits:
     max_scene_values : int
         Most radiance values (height x width x planes) of an uploaded scene
         (default 8,000,000, 64 MB as float64: e.g. 512 x 500 pixels x 31 planes).
+    worker_memory_bytes : int
+        Memory a read in its worker process may add to the worker's own
+        (default 1 GiB; :mod:`camsim_core.io.isolated`).
+    worker_cpu_seconds : int
+        CPU time a read may take (default 20 s).
+    worker_wall_seconds : int
+        Wall time a read may take before its worker is killed (default 30 s).
     """
 
     max_upload_bytes: int = 16 * 2**20
@@ -63,9 +70,13 @@ class UploadLimits:
     max_member_bytes: int = 32 * 2**20
     max_total_bytes: int = 128 * 2**20
     max_scene_values: int = 8_000_000
+    worker_memory_bytes: int = 2**30
+    worker_cpu_seconds: int = 20
+    worker_wall_seconds: int = 30
 
     def __post_init__(self):
-        for name in ("max_upload_bytes", "max_members", "max_member_bytes", "max_total_bytes", "max_scene_values"):
+        for name in ("max_upload_bytes", "max_members", "max_member_bytes", "max_total_bytes", "max_scene_values",
+                     "worker_memory_bytes", "worker_cpu_seconds", "worker_wall_seconds"):
             v = getattr(self, name)
             if not isinstance(v, int) or isinstance(v, bool) or v < 1:
                 from ..errors import ParameterError
@@ -85,6 +96,16 @@ def _mb(n):
     return f"{n / 2**20:.3g} MiB"
 
 
+def upload_name(filename):
+    """The last component of an upload's name, refusing control characters and names over 255 characters."""
+    text = str(filename or "upload")
+    if any(ord(c) < 32 or ord(c) == 127 for c in text):
+        raise FileFormatError("upload", "the file name holds a NUL or control character; rename the file")
+    if len(text) > 255:
+        raise FileFormatError("upload", f"the file name is {len(text)} characters long, more than the 255 allowed")
+    return PurePosixPath(text.replace("\\", "/")).name or "upload"
+
+
 def load_upload(filename, content, limits=DEFAULT_LIMITS):
     """A :class:`~camsim_core.scene.Scene` from an uploaded file's name and bytes.
 
@@ -93,12 +114,7 @@ def load_upload(filename, content, limits=DEFAULT_LIMITS):
     :class:`~camsim_core.errors.FileFormatError` naming the user's file when
     the upload is not a scene or exceeds ``limits``.
     """
-    text = str(filename or "upload")
-    if any(ord(c) < 32 or ord(c) == 127 for c in text):
-        raise FileFormatError("upload", "the file name holds a NUL or control character; rename the file")
-    if len(text) > 255:
-        raise FileFormatError("upload", f"the file name is {len(text)} characters long, more than the 255 allowed")
-    name = PurePosixPath(text.replace("\\", "/")).name or "upload"
+    name = upload_name(filename)
     suffix = PurePosixPath(name).suffix.lower()
     if suffix not in _SUFFIXES:
         raise FileFormatError(name, f"upload a scene as {UPLOAD_KINDS}")
