@@ -15,7 +15,7 @@ from concurrent.futures import ThreadPoolExecutor, wait
 
 import numpy as np
 
-__all__ = ["CORES", "PARALLEL_VALUES", "run_blocks", "split"]
+__all__ = ["CORES", "PARALLEL_VALUES", "run_blocks", "split", "background", "BACKGROUND_NICE"]
 
 #: Threads of the pool: the machine's cores.
 CORES = max(1, os.cpu_count() or 1)
@@ -47,6 +47,49 @@ class ThreadPool:
 
 
 _blocks = ThreadPool("camsim-block")
+_local = threading.local()
+#: Niceness of a thread doing background work (sweeps, pinned designs): below a server's interactive work.
+BACKGROUND_NICE = 10
+#: One background job computes at a time in the whole process, in its own thread, on one core.
+_background_slot = threading.Lock()
+
+
+class background:
+    """Run a block of work as background work: one at a time per process, at lower priority, on one core.
+
+    For work a user waits for less than for the live view (a sweep's points,
+    pinned designs): inside the block, :func:`run_blocks` runs every block in
+    the calling thread (no share of the block pool, which serves the live
+    views), the thread's niceness is raised to :data:`BACKGROUND_NICE` (Linux
+    sets niceness per thread; it is never lowered again, so use it in a
+    thread made for the work), and a process-wide lock lets one background
+    block compute at a time, whatever session it belongs to. So sweeps of
+    every session together take one core at most, and lose it to any
+    interactive work.
+
+    Hand-written: thread pools have no priority and no inline mode.
+
+    Examples
+    --------
+    >>> with background():
+    ...     run_blocks(lambda a, b: None, [0, 1, 2], values=10**9)  # runs here, in turn
+    """
+
+    def __enter__(self):
+        if not getattr(_local, "niced", False):
+            try:
+                os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), BACKGROUND_NICE)
+                _local.niced = True
+            except (AttributeError, OSError):  # not Linux: the lock and the inline blocks still hold
+                pass
+        _background_slot.acquire()
+        _local.depth = getattr(_local, "depth", 0) + 1
+        return self
+
+    def __exit__(self, *exc):
+        _local.depth -= 1
+        _background_slot.release()
+        return False
 
 
 def run_blocks(fn, bounds, *, values):
@@ -55,11 +98,12 @@ def run_blocks(fn, bounds, *, values):
 
     ``fn`` must touch only its own block of the output. Exceptions are raised here, after every block ended.
     Called from one of the pool's own threads (a block whose work splits again), the blocks run in turn
-    there: a block waiting on the pool it occupies could wait forever.
+    there: a block waiting on the pool it occupies could wait forever. Inside :class:`background` they
+    run in turn too.
     """
     edges = [int(b) for b in bounds]
     pairs = [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
-    nested = threading.current_thread().name.startswith(_blocks.prefix)
+    nested = threading.current_thread().name.startswith(_blocks.prefix) or getattr(_local, "depth", 0) > 0
     if CORES == 1 or len(pairs) < 2 or values < PARALLEL_VALUES or nested:
         for a, b in pairs:
             fn(a, b)

@@ -23,6 +23,8 @@ import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
+from .._parallel import background
+
 from ..cache import Pipeline
 from ..errors import CamsimError, ParameterError
 from .design import DESIGN_DEFAULTS, DESIGN_PARAMETERS, GAUSSIAN_DEFAULTS, check_params, evaluate_design, parse_numbers
@@ -157,7 +159,8 @@ def _points(designs, parameter, values, scene, max_workers, cancel, metrics):
                     break
                 p = design_at(params, parameter, v, where=name)
                 try:
-                    r = evaluate_design(p, name, scene=scene, pipeline=pipeline, metrics=metrics, quality=False)
+                    with background():  # one point at a time in the whole process, below interactive work
+                        r = evaluate_design(p, name, scene=scene, pipeline=pipeline, metrics=metrics, quality=False)
                     out.put(SweepPoint(index, name, v, p, measures=r.measures))
                 except CamsimError as exc:
                     out.put(SweepPoint(index, name, v, p, error=str(exc)))

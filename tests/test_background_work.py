@@ -1,0 +1,85 @@
+"""Background work (sweeps) takes one core at most, at lower priority, whatever session runs it."""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from camsim_core import _parallel
+from camsim_core._parallel import BACKGROUND_NICE, background, run_blocks
+
+
+def _in_thread(fn):
+    out = {}
+
+    def run():
+        out["value"] = fn()
+
+    t = threading.Thread(target=run)
+    t.start()
+    t.join(30)
+    return out["value"]
+
+
+def test_background_blocks_run_in_the_calling_thread_at_lower_priority():
+    def work():
+        seen = []
+        with background():
+            run_blocks(lambda a, b: seen.append(threading.get_ident()), [0, 10, 20, 30], values=10**9)
+            nice = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+        return seen, threading.get_ident(), nice
+
+    seen, me, nice = _in_thread(work)
+    assert seen == [me] * 3  # no block went to the shared pool
+    assert nice == os.getpriority(os.PRIO_PROCESS, 0) + BACKGROUND_NICE or nice == 19
+
+
+def test_outside_background_large_work_uses_the_pool():
+    if _parallel.CORES < 2:
+        pytest.skip("one core: the pool is never used")
+    seen = []
+    run_blocks(lambda a, b: seen.append(threading.get_ident()), [0, 10, 20], values=10**9)
+    assert threading.get_ident() not in seen
+
+
+def test_two_background_jobs_never_overlap():
+    active, most = [0], [0]
+    lock = threading.Lock()
+
+    def job():
+        for _ in range(5):
+            with background():
+                with lock:
+                    active[0] += 1
+                    most[0] = max(most[0], active[0])
+                time.sleep(0.005)
+                with lock:
+                    active[0] -= 1
+
+    threads = [threading.Thread(target=job) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(30)
+    assert most[0] == 1
+
+
+def test_a_sweep_computes_its_points_as_background_work(monkeypatch):
+    import camsim_core.review.sweep as sweep
+
+    seen = []
+
+    def fake(params, name, **kw):
+        seen.append((_parallel._local.depth, os.getpriority(os.PRIO_PROCESS, threading.get_native_id())))
+        raise sweep.CamsimError("stop here")
+
+    monkeypatch.setattr(sweep, "evaluate_design", fake)
+    base = os.getpriority(os.PRIO_PROCESS, 0)
+    points = sweep.run_sweep([("a", {"camera": "kodak-dcs200"})], "noise_sigma", [0.0, 2.0])
+    assert len(points) == 2 and all(p.error == "stop here" for p in points)
+    assert seen and all(depth == 1 and nice >= min(19, base + BACKGROUND_NICE) for depth, nice in seen)
+    assert os.getpriority(os.PRIO_PROCESS, 0) == base  # the caller's own thread keeps its priority
