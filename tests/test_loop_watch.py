@@ -1,0 +1,26 @@
+"""The event-loop watch logs a stall (how late its tick ran) with its length."""
+
+import asyncio
+import logging
+import time
+
+from app.loop_watch import STALLS, watch_event_loop
+
+
+def test_a_blocked_loop_is_logged_and_a_free_one_is_not(caplog):
+    async def main():
+        loop = asyncio.get_running_loop()
+        stop = watch_event_loop(loop, threshold_ms=100)
+        await asyncio.sleep(0.1)
+        quiet = STALLS["count"]
+        time.sleep(0.25)  # a callback holding the loop for 250 ms
+        await asyncio.sleep(0.1)
+        stop()
+        return quiet
+
+    before = STALLS["count"]
+    with caplog.at_level(logging.WARNING, logger="camsim.serve"):
+        quiet = asyncio.run(main())
+    assert STALLS["count"] >= quiet + 1
+    assert 150 <= STALLS["longest_ms"] < 5000
+    assert any("event loop blocked" in r.getMessage() for r in caplog.records)
