@@ -43,9 +43,12 @@ class Monitor:
         Settings in [0, 1] at which the gamma table was measured.
     gamma_table : ndarray (M, 3)
         Linear output (0-1) of each phosphor at those settings.
-    ambient : ndarray (N,)
+    ambient : ndarray (N,) or None
+        Light the screen reflects, per band of ``wavelengths``, >= 0.
+    background : (r, g, b)
+        Settings in [0, 1].
     bits : int
-        Depth of the frame buffer (8: values 0-255).
+        Depth of the frame buffer, 1 to 16 (8: values 0-255).
     """
 
     wavelengths: np.ndarray
@@ -58,17 +61,43 @@ class Monitor:
     name: str = ""
 
     def __post_init__(self):
-        w = np.asarray(self.wavelengths, float).ravel()
-        p = np.asarray(self.primaries, float)
+        def array(name, ndim):
+            try:
+                a = np.array(getattr(self, name), float, ndmin=ndim)
+            except (TypeError, ValueError):
+                raise ParameterError(name, f"must be numbers, got {type(getattr(self, name)).__name__}") from None
+            if not np.all(np.isfinite(a)):
+                raise ParameterError(name, "must be finite (no NaN or infinity)")
+            return a
+
+        w = array("wavelengths", 1).ravel()
+        if w.size < 1 or np.any(w <= 0) or np.any(np.diff(w) <= 0):
+            raise ParameterError("wavelengths", "must be positive nm, strictly increasing")
+        p = array("primaries", 2)
         if p.shape != (w.size, 3):
             raise ParameterError(self.name or "monitor", f"primaries must be ({w.size}, 3), got {p.shape}")
-        gi = np.asarray(self.gamma_input, float).ravel()
-        gt = np.asarray(self.gamma_table, float)
+        if np.any(p < 0):
+            raise ParameterError("primaries", "spectral power must be >= 0")
+        gi = array("gamma_input", 1).ravel()
+        gt = array("gamma_table", 2)
         if gt.shape != (gi.size, 3):
             raise ParameterError(self.name or "monitor", f"gamma table must be ({gi.size}, 3), got {gt.shape}")
         # a table inverted by interpolation must be non-decreasing
         gt = np.maximum.accumulate(gt, axis=0)
-        for a in (w, p, gi, gt):
+        arrays = [w, p, gi, gt]
+        if self.ambient is not None:
+            amb = array("ambient", 1).ravel()
+            if amb.shape != w.shape or np.any(amb < 0):
+                raise ParameterError("ambient", f"must be {w.size} values >= 0 (one per wavelength), or None")
+            arrays.append(amb)
+            object.__setattr__(self, "ambient", amb)
+        bg = array("background", 1).ravel()
+        if bg.size != 3 or np.any(bg < 0) or np.any(bg > 1):
+            raise ParameterError("background", f"must be three settings in [0, 1], got {self.background!r}")
+        object.__setattr__(self, "background", tuple(float(v) for v in bg))
+        if isinstance(self.bits, bool) or not isinstance(self.bits, (int, np.integer)) or not 1 <= self.bits <= 16:
+            raise ParameterError("bits", f"a frame buffer has 1 to 16 bits, got {self.bits!r}")
+        for a in arrays:
             a.flags.writeable = False
         object.__setattr__(self, "wavelengths", w)
         object.__setattr__(self, "primaries", p)
@@ -320,24 +349,45 @@ def _frame_buffer_steps(monitor, dtype):
 
 
 def read_smon(path):
-    """Read a SimToolbox ``.Smon`` monitor file."""
-    from .io.simtoolbox import group_numbers, read_tagged
+    """Read a SimToolbox ``.Smon`` monitor file.
 
-    from .io.simtoolbox import wavelength_sampling
+    Parameters
+    ----------
+    path : path
+        The ``.Smon`` file.
+
+    Returns
+    -------
+    Monitor
+        8 bits, named after the file.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file and the tag, for any field that is missing, of the
+        wrong kind or shape, not finite, or out of its physical range:
+        ``#Sim#EmissionSpectra`` (wavelengths x 3, >= 0, each phosphor
+        emitting somewhere), ``#Sim#GammaInput`` (at least 2 settings
+        strictly increasing within [0, 1]), ``#Sim#GammaTable`` (settings x 3,
+        >= 0, some output for every phosphor), ``#Sim#AmbientSpectrum``
+        (one value per wavelength, >= 0: light the screen reflects cannot be
+        negative) and ``#Sim#BgColor`` (three settings in [0, 1]).
+    """
+    from .io.simtoolbox import _numbers, matrix, read_tagged, wavelength_sampling
 
     path = Path(path)
     t = read_tagged(path)
     w = wavelength_sampling(t)
-    prim = np.asarray(t.require("EmissionSpectra", "phosphor spectra"), float)
+    prim = matrix(t, "EmissionSpectra", "phosphor spectra")
     if prim.shape[0] != w.size:
         raise FileFormatError(path, f"#Sim#EmissionSpectra has {prim.shape[0]} rows for {w.size} wavelengths")
     if prim.shape[1] != 3:
         raise FileFormatError(path, f"#Sim#EmissionSpectra must have 3 columns (phosphors), has {prim.shape[1]}")
     if np.any(prim < 0) or not np.any(prim > 0, axis=0).all():
         raise FileFormatError(path, "#Sim#EmissionSpectra must be non-negative, each phosphor emitting somewhere")
-    gi = np.asarray(t.require("GammaInput"), float).ravel()
-    gt = np.asarray(t.require("GammaTable"), float)
-    if gt.ndim != 2 or gt.shape != (gi.size, 3):
+    gi = matrix(t, "GammaInput", "the settings of the gamma table").ravel()
+    gt = matrix(t, "GammaTable", "each phosphor's output at those settings")
+    if gt.shape != (gi.size, 3):
         raise FileFormatError(path, f"#Sim#GammaTable must be {gi.size} x 3 to match #Sim#GammaInput, is {' x '.join(map(str, gt.shape))}")
     if gi.size < 2:
         raise FileFormatError(path, f"#Sim#GammaInput has {gi.size} entries; a gamma table needs at least 2")
@@ -345,18 +395,34 @@ def read_smon(path):
         raise FileFormatError(path, "#Sim#GammaInput must increase strictly within [0, 1]")
     if np.any(gt < 0) or np.any(gt.max(axis=0) <= 0):
         raise FileFormatError(path, "#Sim#GammaTable must be non-negative with some output for every phosphor (an all-zero table renders black)")
-    amb = t.get_tag("AmbientSpectrum")
-    bg = t.get_tag("BgColor")
+    amb = _tag_numbers(t, "AmbientSpectrum", _numbers)
+    if amb is not None:
+        if amb.size != w.size:
+            raise FileFormatError(path, f"#Sim#AmbientSpectrum has {amb.size} values for {w.size} wavelengths")
+        if np.any(amb < 0):
+            j = int(np.argmin(amb))
+            raise FileFormatError(path, f"#Sim#AmbientSpectrum must be >= 0 (ambient light cannot be negative); "
+                                        f"it is {amb[j]:g} at {w[j]:g} nm")
+    bg = _tag_numbers(t, "BgColor", _numbers)
+    if bg is not None and (bg.size != 3 or np.any(bg < 0) or np.any(bg > 1)):
+        raise FileFormatError(path, f"#Sim#BgColor must be three settings in [0, 1], found {bg.tolist()[:6]}")
     try:
-        return Monitor(
-            w, prim, gi, gt,
-            None if amb is None else np.asarray(amb, float).ravel(),
-            tuple(np.asarray(bg, float).ravel()) if bg is not None else (0.5, 0.5, 0.5),
-            8,
-            path.stem,
-        )
+        return Monitor(w, prim, gi, gt, amb, tuple(float(v) for v in bg) if bg is not None else (0.5, 0.5, 0.5), 8,
+                       path.stem)
     except ValueError as exc:
         raise FileFormatError(path, str(exc)) from None
+
+
+def _tag_numbers(t, name, numbers):
+    """The numbers of optional tag ``name`` (a matrix or a section of lines), finite; None when absent."""
+    value = t.get_tag(name)
+    if value is None:
+        return None
+    if isinstance(value, dict):
+        raise FileFormatError(t.path, f"#Sim#{name} should hold numbers, found a group of ##Sim fields")
+    if isinstance(value, np.ndarray):
+        return value.ravel()
+    return numbers(t.path, name, value)
 
 
 @lru_cache(maxsize=None)

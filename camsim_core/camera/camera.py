@@ -27,9 +27,69 @@ from ..simulation.electrons import check_sensor_fields
 from ..simulation import DEFAULT_ARCHITECTURE, sensor_responses
 from ..spectra import Spectrum
 
-__all__ = ["Camera", "NOISE_MODELS"]
+__all__ = ["Camera", "NOISE_MODELS", "MAX_CAMERA_SIDE", "MAX_CAMERA_PIXELS", "ANGULAR_RESOLUTION_RANGE",
+           "PIXEL_PITCH_RANGE", "MIN_DISTANCE", "check_camera_size"]
 
 NOISE_MODELS = ("gaussian", "photon", "gaussian-range")
+
+#: Most pixels on one side of a camera's array, 2**16: a guard against absurd sizes (a 1e40-pixel
+#: height, a 200000 x 200000 array), not a physical limit; the largest single sensors are ~14000 px wide.
+MAX_CAMERA_SIDE = 65536
+#: Most pixels in a camera's array, 2**29 (~537 MP): 12 MP and 50 MP sensors, the 150 MP medium-format ones
+#: and the explorer's finest pitch (the IMX174's 1920 x 1200 at 0.5 um instead of 5.86 um, 316 MP) pass. The
+#: array bounds the simulated image (the image covers the scene's extent, cropped to the array), it is not
+#: allocated by itself.
+MAX_CAMERA_PIXELS = 2**29
+#: Pixels per degree a camera may have, (lowest, highest): a pixel narrower than 1000 degrees and wider
+#: than 1e-5 degree (a 1 um pixel behind a 2 m lens has ~35000 px/deg). Beyond them resampling a scene
+#: would need absurd arrays.
+ANGULAR_RESOLUTION_RANGE = (1e-3, 1e5)
+#: Pixel pitch a camera may have, m (lowest, highest): 10 nm to 1 cm. A quantal sensor's electrons scale
+#: with the pixel's area; beyond these the counts under- or overflow.
+PIXEL_PITCH_RANGE = (1e-8, 1e-2)
+#: Closest distance of a camera to its scene, m (1 mm): closer, resampling the scene would need absurd arrays.
+MIN_DISTANCE = 1e-3
+
+
+def _is_number(v):
+    return not isinstance(v, bool) and isinstance(v, (int, float, np.integer, np.floating))
+
+
+def check_camera_size(height, width, name="height, width"):
+    """``(height, width)`` as ints, or a ParameterError naming ``name``.
+
+    Each must be a whole number of pixels from 1 to :data:`MAX_CAMERA_SIDE`,
+    and their product at most :data:`MAX_CAMERA_PIXELS` (checked before
+    anything is allocated: a 200000 x 200000 array is refused).
+
+    Parameters
+    ----------
+    height, width : int or float
+        The array's rows and columns; whole floats (1012.0) are accepted.
+    name : str
+        What the error names (a field, a tag or a command-line option).
+
+    Returns
+    -------
+    (int, int)
+    """
+    out = []
+    for what, v in (("height", height), ("width", width)):
+        whole = isinstance(v, (int, np.integer)) or (_is_number(v) and np.isfinite(v) and v == int(v))
+        if not _is_number(v) or not whole or not 1 <= v <= MAX_CAMERA_SIDE:
+            raise ParameterError(name, f"the {what} must be a whole number of pixels from 1 to {MAX_CAMERA_SIDE}, got {v!r}")
+        out.append(int(v))
+    if out[0] * out[1] > MAX_CAMERA_PIXELS:
+        raise ParameterError(name, f"{out[0]} x {out[1]} = {out[0] * out[1]} pixels; a camera has at most {MAX_CAMERA_PIXELS}")
+    return out[0], out[1]
+
+
+def _pair(value, name):
+    """``value`` (one number or two) as two floats, or a ParameterError naming ``name``."""
+    try:
+        return tuple(float(v) for v in np.broadcast_to(np.asarray(value, float), (2,)))
+    except (TypeError, ValueError):
+        raise ParameterError(name, f"expected one or two numbers, got {value!r}") from None
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,25 +99,26 @@ class Camera:
     Attributes
     ----------
     sensors : Sensors
-        Spectral sensitivities ("Watts": digital units per unit radiance
+        Spectral sensitivities, >= 0 ("Watts": digital units per unit radiance
         band at ``cal_exposure`` and ``cal_f_stop``; "Quanta": quantum
         efficiency, see :func:`~camsim_core.simulation.sensor.sensor_responses`).
     mosaic : ndarray (n, m) or (n, m, tiers) of int, or None
         0-based sensor index at each tile position; ``None`` for a full-colour camera.
     height, width : int
-        Size of the sensor array, pixels.
+        Size of the sensor array, pixels: each 1 to :data:`MAX_CAMERA_SIDE`,
+        at most :data:`MAX_CAMERA_PIXELS` in all.
     angular_resolution : (x, y)
-        Pixels per degree.
+        Pixels per degree, within :data:`ANGULAR_RESOLUTION_RANGE`.
     focal_length : float
         mm.
     pixel_size : (height, width)
-        Pixel pitch, m (quantal cameras: the pixel area is their product).
+        Pixel pitch, m, within :data:`PIXEL_PITCH_RANGE` (quantal cameras: the pixel area is their product).
     cal_exposure, cal_f_stop : float
         Conditions of the sensitivity calibration (s, f-number).
     exposure, f_stop : float
         Conditions of the simulated picture.
     distance : float or None
-        m from the scene; ``None`` keeps the scene's own distance.
+        m from the scene, at least :data:`MIN_DISTANCE`; ``None`` keeps the scene's own distance.
     noise_model : "gaussian", "photon" or "gaussian-range"
         Additive Gaussian noise in digital units (the chapter's model, the
         original's ``gaussianIID``), the electron-level sensor of quantal
@@ -170,6 +231,14 @@ class Camera:
     def __post_init__(self):
         if not isinstance(self.sensors, Sensors):
             raise ParameterError("sensors", f"must be a Sensors set, got {type(self.sensors).__name__}")
+        sv = self.sensors.values
+        if sv.size and sv.min() < 0:
+            k, j = np.unravel_index(np.argmin(sv), sv.shape)
+            raise ParameterError("sensors", f"spectral sensitivities must be >= 0 (a sensor cannot record negative light); "
+                                            f"{self.sensors.names[k]} is {sv[k, j]:g} at {self.sensors.wavelengths[j]:g} nm")
+        h, w = check_camera_size(self.height, self.width)
+        object.__setattr__(self, "height", h)
+        object.__setattr__(self, "width", w)
         object.__setattr__(self, "mosaic", check_tile(self.mosaic, len(self.sensors), "mosaic"))
         for field_name in ("exposure", "f_stop", "cal_exposure", "cal_f_stop", "focal_length", "electrons_per_dn"):
             v = getattr(self, field_name)
@@ -177,32 +246,33 @@ class Camera:
                 raise ParameterError(field_name, f"must be a positive number, got {v!r}")
         if self.f_stop < MIN_F_NUMBER:
             raise ParameterError("f_stop", f"must be an f-number >= {MIN_F_NUMBER} (numerical aperture <= 1), got {self.f_stop!r}")
-        ps = tuple(float(v) for v in np.broadcast_to(np.asarray(self.pixel_size, float), (2,)))
-        if not all(np.isfinite(v) and v > 0 for v in ps):
-            raise ParameterError("pixel_size", f"the pixel pitch must be positive metres (height, width), got {self.pixel_size!r}")
+        ps = _pair(self.pixel_size, "pixel_size")
+        lo, hi = PIXEL_PITCH_RANGE
+        if not all(np.isfinite(v) and lo <= v <= hi for v in ps):
+            raise ParameterError("pixel_size", f"the pixel pitch must be {lo:g} to {hi:g} m (height, width), got {self.pixel_size!r}")
         object.__setattr__(self, "pixel_size", ps)
-        if self.distance is not None and not (np.isfinite(self.distance) and self.distance > 0):
-            raise ParameterError("distance", f"must be a positive number of metres or None, got {self.distance!r}")
-        for field_name in ("height", "width"):
-            v = getattr(self, field_name)
-            if int(v) != v or v < 1:
-                raise ParameterError(field_name, f"must be a positive whole number of pixels, got {v!r}")
-        ar = tuple(float(v) for v in np.broadcast_to(np.asarray(self.angular_resolution, float), (2,)))
-        if not all(np.isfinite(v) and v > 0 for v in ar):
-            raise ParameterError("angular_resolution", f"must be positive pixels per degree (x, y), got {ar}")
+        if self.distance is not None and not (_is_number(self.distance) and np.isfinite(self.distance)
+                                              and self.distance >= MIN_DISTANCE):
+            raise ParameterError("distance", f"must be a finite number of metres >= {MIN_DISTANCE:g}, or None, got {self.distance!r}")
+        ar = _pair(self.angular_resolution, "angular_resolution")
+        lo, hi = ANGULAR_RESOLUTION_RANGE
+        if not all(np.isfinite(v) and lo <= v <= hi for v in ar):
+            raise ParameterError("angular_resolution", f"must be {lo:g} to {hi:g} pixels per degree (x, y), got {ar}")
         object.__setattr__(self, "angular_resolution", ar)
         if self.noise_model not in NOISE_MODELS:
             raise ParameterError("noise_model", f"must be one of {NOISE_MODELS}, got {self.noise_model!r}")
         for field_name in ("noise_sigma", "read_noise"):
             v = getattr(self, field_name)
-            if not (np.isfinite(v) and v >= 0):
+            if not (_is_number(v) and np.isfinite(v) and v >= 0):
                 raise ParameterError(field_name, f"must be a non-negative number, got {v!r}")
         bl = self.black_level
         if isinstance(bl, bool) or not isinstance(bl, (int, float, np.floating, np.integer)) or not (np.isfinite(bl) and bl >= 0):
             raise ParameterError("black_level", f"must be a finite number of digital units >= 0, got {bl!r}")
         object.__setattr__(self, "black_level", float(bl))
-        if not np.isfinite(self.noise_mean):
-            raise ParameterError("noise_mean", f"must be finite, got {self.noise_mean!r}")
+        if self.seed is not None and (isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0):
+            raise ParameterError("seed", f"must be a whole number >= 0 or None, got {self.seed!r}")
+        if not (_is_number(self.noise_mean) and np.isfinite(self.noise_mean)):
+            raise ParameterError("noise_mean", f"must be a finite number, got {self.noise_mean!r}")
         if self.noise_model == "photon" and self.sensors.unit != "Quanta":
             raise ParameterError("noise_model", "photon noise needs sensitivities in quanta (sensors.unit == 'Quanta')")
         if self.bits is not None:

@@ -21,10 +21,21 @@ from ..datasets.sensors import (
     stockman_sharpe_cones,
 )
 from ..errors import FileFormatError, ParameterError
-from ..io.simtoolbox import checked_number, checked_wavelengths, group_number, group_numbers, read_tagged, wavelength_sampling
+from ..io.simtoolbox import (
+    MAX_SAMPLES,
+    checked_number,
+    checked_sensitivities,
+    checked_wavelengths,
+    group_number,
+    group_numbers,
+    matrix,
+    read_tagged,
+    wavelength_sampling,
+)
+from ..optics.diffraction import MIN_F_NUMBER
 from ..simulation import DEFAULT_ARCHITECTURE, FOUR_SENSOR_GRID, bayer, digitize, mosaic, noise, optical_blur, resample, sensor_responses
 from ..spectra import sampling_wavelengths
-from .camera import Camera
+from .camera import ANGULAR_RESOLUTION_RANGE, MAX_CAMERA_PIXELS, MAX_CAMERA_SIDE, PIXEL_PITCH_RANGE, Camera
 from .physical import PHYSICAL_NAMES, physical_camera
 
 __all__ = ["load_camera", "read_scam", "CAMERA_NAMES", "camera_preset"]
@@ -106,10 +117,29 @@ def read_scam(path):
     (``noise_model "gaussian-range"``). Another type is refused.
 
     The black level (``black_level``) is 0: no SimToolbox file has one.
+
+    Every field is checked before use, and a bad one is refused with a
+    :class:`FileFormatError` naming the file and the tag: sensitivities
+    must be finite and >= 0, each sensor responding somewhere (quantum
+    efficiencies at most 1); ``#SimHeight`` and ``#SimWidth`` whole numbers
+    from 1 to :data:`~camsim_core.camera.camera.MAX_CAMERA_SIDE` with at
+    most :data:`~camsim_core.camera.camera.MAX_CAMERA_PIXELS` pixels in all
+    (refused before anything is allocated); the angular resolution and the
+    pixel pitch within
+    :data:`~camsim_core.camera.camera.ANGULAR_RESOLUTION_RANGE` and
+    :data:`~camsim_core.camera.camera.PIXEL_PITCH_RANGE`; the lens, the
+    calibration exposure and f-number positive (f-number at least
+    :data:`~camsim_core.optics.diffraction.MIN_F_NUMBER`); the noise
+    variance >= 0; the bits 1 to 32.
     """
     path = Path(path)
     t = read_tagged(path)
     n = t.number("NumberSensors", required=True, integer=True, positive=True)
+    height = t.number("Height", required=True, integer=True, positive=True, maximum=MAX_CAMERA_SIDE)
+    width = t.number("Width", required=True, integer=True, positive=True, maximum=MAX_CAMERA_SIDE)
+    if height * width > MAX_CAMERA_PIXELS:
+        raise FileFormatError(path, f"#SimHeight x #SimWidth is {height} x {width} = {height * width} pixels; "
+                                    f"a camera has at most {MAX_CAMERA_PIXELS}")
     ws = t.get_tag("WavelengthSampling")
     if isinstance(ws, dict):
         wls = wavelength_sampling(t)
@@ -118,15 +148,14 @@ def read_scam(path):
         wls = sampling_wavelengths(*s)
     else:
         raise FileFormatError(path, "required tag #SimWavelengthSampling is missing")
-    sens = t.require("SpectralSensitivity", "one row of sensitivities per sensor")
-    if not isinstance(sens, np.ndarray) or sens.ndim != 2:
-        raise FileFormatError(path, "#Sim#SpectralSensitivity must be a matrix ('rows cols' then the values)")
+    sens = matrix(t, "SpectralSensitivity", "one row of sensitivities per sensor")
     if sens.shape != (n, wls.size):
         raise FileFormatError(path, f"#Sim#SpectralSensitivity is {sens.shape[0]} x {sens.shape[1]}, expected {n} x {wls.size}")
     unit = t.text("Unit", "Watts").strip().capitalize()
     if unit not in ("Watts", "Quanta"):
         raise FileFormatError(path, f"#SimUnit must be Watts or Quanta for a camera, found {unit!r}")
     names = ("R", "G", "B") if n == 3 else tuple(f"S{i + 1}" for i in range(n))
+    checked_sensitivities(path, "#Sim#SpectralSensitivity", sens, names, wls, unit)
     try:
         sensors = Sensors(wls, sens, names, unit, t.text("Name"))
     except ValueError as exc:
@@ -147,8 +176,9 @@ def read_scam(path):
             tile = tile[:, :, 0]
         if tile.shape[:2] == (1, 1):
             tile = None  # one pixel with every sensor: a full-colour camera
-    ax = group_number(t, "AngularResolution", "X", positive=True)
-    ay = group_number(t, "AngularResolution", "Y", positive=True)
+    lo, hi = ANGULAR_RESOLUTION_RANGE
+    ax = group_number(t, "AngularResolution", "X", minimum=lo, maximum=hi)
+    ay = group_number(t, "AngularResolution", "Y", minimum=lo, maximum=hi)
     noise_mean = noise_sigma = 0.0
     noise_model = "gaussian"
     if t.has("Noise"):
@@ -166,8 +196,12 @@ def read_scam(path):
         bits = group_number(t, "Quantize", "Bits", integer=True, positive=True, required=False)
         if bits is not None and bits > 32:
             raise FileFormatError(path, f"#SimQuantize ##SimBits is {bits}; expected 1 to 32")
-    ph = t.number("PixelHeight", 9e-6)
-    pw = t.number("PixelWidth", 9e-6)
+    lo, hi = PIXEL_PITCH_RANGE
+    ph = t.number("PixelHeight", 9e-6, minimum=lo, maximum=hi)
+    pw = t.number("PixelWidth", 9e-6, minimum=lo, maximum=hi)
+    focal_length = t.number("Lens", 50.0, positive=True)
+    cal_exposure = t.number("CalExposureTime", 1.0, positive=True)
+    cal_f_stop = t.number("CalFStop", 5.6, minimum=MIN_F_NUMBER)
     algs = [a for a in t.get_tag("Alg", []) if a and a.strip()]
     architecture = _architecture(path, algs)
     comments = t.text("Comments")
@@ -176,15 +210,15 @@ def read_scam(path):
             sensors=sensors,
             name=path.stem,
             mosaic=tile,
-            height=t.number("Height", required=True, integer=True, positive=True),
-            width=t.number("Width", required=True, integer=True, positive=True),
+            height=height,
+            width=width,
             angular_resolution=(ax, ay),
-            focal_length=t.number("Lens", 50.0),
+            focal_length=focal_length,
             pixel_size=(ph, pw),
-            cal_exposure=t.number("CalExposureTime", 1.0),
-            cal_f_stop=t.number("CalFStop", 5.6),
-            exposure=t.number("CalExposureTime", 1.0),
-            f_stop=t.number("CalFStop", 5.6),
+            cal_exposure=cal_exposure,
+            cal_f_stop=cal_f_stop,
+            exposure=cal_exposure,
+            f_stop=cal_f_stop,
             noise_model=noise_model,
             noise_mean=noise_mean,
             noise_sigma=noise_sigma,
@@ -207,8 +241,8 @@ def _three_numbers(path, lines):
     start = checked_number(path, "#SimWavelengthSampling start", v[:1], positive=True)
     step = checked_number(path, "#SimWavelengthSampling step", v[1:2], positive=True)
     count = checked_number(path, "#SimWavelengthSampling count", v[2:3], integer=True, positive=True)
-    if count > 4096:
-        raise FileFormatError(path, f"#SimWavelengthSampling count is {count}, more than 4096")
+    if count > MAX_SAMPLES:
+        raise FileFormatError(path, f"#SimWavelengthSampling count is {count}, more than {MAX_SAMPLES}")
     checked_wavelengths(path, "#SimWavelengthSampling", start, step, count)
     return start, step, count
 

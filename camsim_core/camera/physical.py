@@ -21,7 +21,7 @@ import numpy as np
 from ..datasets.sensors import WAVELENGTHS_380_780, Sensors
 from ..errors import FileFormatError, ParameterError
 from ..simulation import bayer
-from .camera import Camera
+from .camera import MAX_CAMERA_SIDE, Camera
 
 __all__ = ["PHYSICAL_NAMES", "physical_camera", "read_sensor_sheet", "angular_resolution_for", "SENSOR_FIELDS",
            "sensor_values", "with_sensor"]
@@ -35,9 +35,52 @@ _REQUIRED = ("pixel_pitch_um", "height", "width", "qe_peak", "qe_center_nm", "qe
              "dark_current", "dsnu", "prnu", "bits", "focal_length_mm", "f_number", "source")
 
 
+#: Each numeric field of a sensor sheet: (lowest, highest, whole number). Beyond these a sheet is refused
+#: (a negative read noise or QE, a QE above 1, a 1e40-pixel height, a billion-bit ADC).
+_SHEET_NUMBERS = {
+    "pixel_pitch_um": (0.01, 1e4, False), "height": (1, MAX_CAMERA_SIDE, True), "width": (1, MAX_CAMERA_SIDE, True),
+    "full_well": (1e-300, 1e12, False), "read_noise": (0.0, 1e9, False), "dark_current": (0.0, 1e12, False),
+    "dsnu": (0.0, 1e9, False), "prnu": (0.0, 10.0, False), "bits": (1, 32, True), "focal_length_mm": (1e-3, 1e6, False),
+    "f_number": (0.5, 1e4, False), "exposure_s": (1e-300, 1e6, False), "fill_factor": (1e-300, 1.0, False),
+    "black_level": (0.0, 1e12, False),
+}
+#: The per-channel fields (``{"R": ..., "G": ..., "B": ...}``) and their ranges.
+_SHEET_CHANNELS = {"qe_peak": (1e-300, 1.0), "qe_center_nm": (1.0, 1e5), "qe_sigma_nm": (1e-3, 1e5)}
+
+
+def _in_range(v, lo, hi):
+    """Whether ``v`` is a JSON number (not a boolean) from ``lo`` to ``hi`` (NaN and infinities are not)."""
+    return not isinstance(v, bool) and isinstance(v, (int, float)) and lo <= v <= hi
+
+
+def _check_sheet(p, sheet):
+    """Refuse a sheet whose fields are of the wrong type or out of range (FileFormatError naming the file and field)."""
+    if not isinstance(sheet, dict):
+        raise FileFormatError(p, "a sensor sheet is a JSON object {field: value}")
+    missing = [k for k in _REQUIRED if k not in sheet]
+    if missing:
+        raise FileFormatError(p, f"missing field(s) {', '.join(missing)}")
+    for key, (lo, hi, whole) in _SHEET_NUMBERS.items():
+        if key not in sheet:
+            continue
+        v = sheet[key]
+        if not _in_range(v, lo, hi) or (whole and v != int(v)):
+            raise FileFormatError(p, f"{key} must be a {'whole ' if whole else ''}number from {lo:g} to {hi:g}, got {repr(v):.40}")
+    for key, (lo, hi) in _SHEET_CHANNELS.items():
+        v = sheet[key]
+        if not isinstance(v, dict) or set(v) != {"R", "G", "B"} or not all(_in_range(x, lo, hi) for x in v.values()):
+            raise FileFormatError(p, f"{key} must be {{\"R\": ..., \"G\": ..., \"B\": ...}} with numbers from {lo:g} to {hi:g}, got {v!r}")
+
+
 @lru_cache(maxsize=8)
 def read_sensor_sheet(path):
-    """The parameters of a sensor sheet (JSON), checked for the fields a camera needs."""
+    """The parameters of a sensor sheet (JSON), checked for the fields a camera needs.
+
+    Every numeric field must be a finite number in its range (whole numbers
+    for ``height``, ``width`` and ``bits``, 1 to 32 bits; quantum
+    efficiencies in (0, 1]); errors are :class:`FileFormatError` naming the
+    file and the field.
+    """
     p = Path(path)
     try:
         sheet = json.loads(p.read_text())
@@ -45,9 +88,7 @@ def read_sensor_sheet(path):
         raise FileFormatError(p, "no such sensor sheet") from None
     except (OSError, ValueError) as exc:
         raise FileFormatError(p, f"not a JSON sensor sheet: {exc}") from None
-    missing = [k for k in _REQUIRED if k not in sheet]
-    if missing:
-        raise FileFormatError(p, f"missing field(s) {', '.join(missing)}")
+    _check_sheet(p, sheet)
     return sheet
 
 

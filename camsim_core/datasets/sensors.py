@@ -95,10 +95,34 @@ class Sensors:
 
 
 def read_dat_sensors(path, names, name=""):
-    """Sensitivities from an old-style SimToolbox ``.dat`` file (``#SimWavelengthSampling start step count``,
-    ``#SimData`` with one row of ``count`` values per name), checked; errors name the file."""
+    """Sensitivities from an old-style SimToolbox ``.dat`` file, checked; errors name the file and the tag.
+
+    Parameters
+    ----------
+    path : path
+        The ``.dat`` file: ``#SimWavelengthSampling start step count`` and
+        ``#SimData`` with one row of ``count`` values per name.
+    names : sequence of str
+        The sensors' names, one per row.
+    name : str
+        The set's name.
+
+    Returns
+    -------
+    Sensors
+        In "Watts".
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file: a missing tag; a start or step that is not a
+        positive finite number, a count that is not a whole number from 1 to
+        :data:`~camsim_core.io.simtoolbox.MAX_SAMPLES`; data of the wrong
+        size, NaN, infinite or negative (a sensor cannot record negative
+        light), or a sensor that is 0 at every wavelength.
+    """
     from ..errors import FileFormatError
-    from ..io.simtoolbox import _numbers, checked_number, checked_wavelengths, read_tagged
+    from ..io.simtoolbox import MAX_SAMPLES, _numbers, checked_number, checked_sensitivities, checked_wavelengths, read_tagged
 
     t = read_tagged(path)
     s = _numbers(t.path, "WavelengthSampling", t.require("WavelengthSampling", "start step count"))
@@ -107,14 +131,15 @@ def read_dat_sensors(path, names, name=""):
     start = checked_number(t.path, "#SimWavelengthSampling start", s[:1], positive=True)
     step = checked_number(t.path, "#SimWavelengthSampling step", s[1:2], positive=True)
     count = checked_number(t.path, "#SimWavelengthSampling count", s[2:3], integer=True, positive=True)
-    if count > 4096:
-        raise FileFormatError(t.path, f"#SimWavelengthSampling count is {count}, more than 4096")
-    checked_wavelengths(t.path, "#SimWavelengthSampling", start, step, count)
+    if count > MAX_SAMPLES:
+        raise FileFormatError(t.path, f"#SimWavelengthSampling count is {count}, more than {MAX_SAMPLES}")
+    wavelengths = checked_wavelengths(t.path, "#SimWavelengthSampling", start, step, count)
     data = _numbers(t.path, "Data", t.require("Data", "the sensitivities"))
     if data.size != len(names) * count:
         raise FileFormatError(t.path, f"#SimData has {data.size} values, expected {len(names)} x {count}")
+    data = checked_sensitivities(t.path, "#SimData", data.reshape(len(names), count), tuple(names), wavelengths)
     try:
-        return Sensors(sampling_wavelengths(start, step, count), data.reshape(len(names), count), names, "Watts", name)
+        return Sensors(wavelengths, data, names, "Watts", name)
     except ValueError as exc:
         raise FileFormatError(t.path, str(exc)) from None
 

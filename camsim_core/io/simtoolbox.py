@@ -25,7 +25,8 @@ import numpy as np
 from ..errors import FileFormatError
 from .files import MAX_TEXT_BYTES, read_regular
 
-__all__ = ["parse_tags", "read_tagged", "TaggedFile", "group_numbers", "group_number"]
+__all__ = ["parse_tags", "read_tagged", "TaggedFile", "group_numbers", "group_number", "checked_number", "matrix",
+           "checked_sensitivities", "wavelength_sampling", "checked_wavelengths", "MAX_SAMPLES", "MAX_WAVELENGTH"]
 
 _SPLIT = re.compile(r"\r\n|\r|\n")
 
@@ -56,13 +57,14 @@ class TaggedFile(dict):
             raise FileFormatError(self.path, f"required tag #Sim{name} is missing ({what})")
         return self[key]
 
-    def number(self, name, default=None, required=False, *, integer=False, positive=False, minimum=None):
+    def number(self, name, default=None, required=False, *, integer=False, positive=False, minimum=None, maximum=None):
         """One finite number from a section or a field (see :func:`checked_number` for the checks)."""
         value = self.require(name) if required else self.get_tag(name)
         if value is None:
             return default
         v = _first_number(self.path, name, value)
-        return checked_number(self.path, f"#Sim{name}", [v], integer=integer, positive=positive, minimum=minimum)
+        return checked_number(self.path, f"#Sim{name}", [v], integer=integer, positive=positive, minimum=minimum,
+                              maximum=maximum)
 
     def text(self, name, default=""):
         value = self.get_tag(name)
@@ -111,21 +113,46 @@ def group_numbers(tagged, group, field, required=True):
     return None
 
 
-def group_number(tagged, group, field, *, integer=False, positive=False, minimum=None, required=True):
+def group_number(tagged, group, field, *, integer=False, positive=False, minimum=None, maximum=None, required=True):
     """The first number of field ``##Sim<field>`` of ``group``, checked.
 
     ``integer`` refuses fractions (a height of 2.5 is an error, never
-    truncated), ``positive`` refuses zero and negatives, ``minimum`` sets
-    an inclusive lower bound. Returns ``None`` for a missing optional field.
+    truncated), ``positive`` refuses zero and negatives, ``minimum`` and
+    ``maximum`` set inclusive bounds. Returns ``None`` for a missing optional field.
     """
     values = group_numbers(tagged, group, field, required=required)
     if values is None:
         return None
-    return checked_number(tagged.path, f"#Sim{group} ##Sim{field}", values, integer=integer, positive=positive, minimum=minimum)
+    return checked_number(tagged.path, f"#Sim{group} ##Sim{field}", values, integer=integer, positive=positive,
+                          minimum=minimum, maximum=maximum)
 
 
-def checked_number(path, where, values, *, integer=False, positive=False, minimum=None):
-    """The first of ``values`` (finite), checked as in :func:`group_number`."""
+def checked_number(path, where, values, *, integer=False, positive=False, minimum=None, maximum=None):
+    """The first of ``values`` (finite), checked as in :func:`group_number`.
+
+    Parameters
+    ----------
+    path : path or str
+        The file every error names.
+    where : str
+        The tag or field every error names (e.g. ``"#SimHeight"``).
+    values : array_like
+        Numbers; the first is checked and returned.
+    integer, positive : bool
+        Refuse fractions / zero and negatives.
+    minimum, maximum : float, optional
+        Inclusive bounds.
+
+    Returns
+    -------
+    int or float
+        An int when ``integer``.
+
+    Raises
+    ------
+    FileFormatError
+        Naming ``path`` and ``where``.
+    """
     arr = np.asarray(values, float).ravel()
     if arr.size == 0:
         raise FileFormatError(path, f"{where} is empty, expected a number")
@@ -138,7 +165,67 @@ def checked_number(path, where, values, *, integer=False, positive=False, minimu
         raise FileFormatError(path, f"{where} is {v:g}, expected a positive number")
     if minimum is not None and v < minimum:
         raise FileFormatError(path, f"{where} is {v:g}, expected at least {minimum:g}")
+    if maximum is not None and v > maximum:
+        raise FileFormatError(path, f"{where} is {v:g}, expected at most {maximum:g}")
     return int(round(v)) if integer else v
+
+
+def matrix(tagged, name, what="values"):
+    """The ``#Sim#<name>`` matrix of ``tagged`` (a 2-D float array), or a FileFormatError naming the file and tag.
+
+    A tag written as a section or a group (not ``#Sim#`` with ``rows cols``)
+    is refused, as is a missing one.
+    """
+    value = tagged.require(name, what)
+    if not isinstance(value, np.ndarray) or value.ndim != 2:
+        raise FileFormatError(tagged.path, f"#Sim#{name} must be a matrix ('#Sim#{name}', then 'rows cols' and the values)")
+    return value
+
+
+def checked_sensitivities(path, where, values, names, wavelengths, unit="Watts"):
+    """Spectral sensitivities (K, N) of a file, refused unless physical.
+
+    Every value must be finite and >= 0 (a sensor cannot record negative
+    light), every sensor must respond somewhere (an all-zero row records
+    nothing), and quantum efficiencies (``unit="Quanta"``) must be at most 1.
+
+    Parameters
+    ----------
+    path : path or str
+        The file every error names.
+    where : str
+        The tag every error names.
+    values : ndarray (K, N)
+    names : sequence of str
+        The sensors' names (K).
+    wavelengths : ndarray (N,)
+        nm.
+    unit : "Watts" or "Quanta"
+
+    Returns
+    -------
+    ndarray (K, N)
+        ``values`` unchanged.
+
+    Raises
+    ------
+    FileFormatError
+        Naming ``path``, ``where``, the sensor and the wavelength.
+    """
+    v = np.asarray(values, float)
+    if not np.all(np.isfinite(v)):
+        raise FileFormatError(path, f"{where} holds NaN or infinite values; expected finite sensitivities")
+    if v.size and v.min() < 0:
+        k, j = np.unravel_index(np.argmin(v), v.shape)
+        raise FileFormatError(path, f"{where}: sensitivities must be >= 0; sensor {names[k]} is {v[k, j]:g} at {wavelengths[j]:g} nm")
+    dead = [names[k] for k in range(v.shape[0]) if not np.any(v[k] > 0)]
+    if dead:
+        raise FileFormatError(path, f"{where}: sensor {', '.join(dead)} is 0 at every wavelength (it would record nothing)")
+    if unit == "Quanta" and v.size and v.max() > 1:
+        k, j = np.unravel_index(np.argmax(v), v.shape)
+        raise FileFormatError(path, f"{where}: quantum efficiencies must be at most 1; sensor {names[k]} is {v[k, j]:g} at "
+                                    f"{wavelengths[j]:g} nm")
+    return v
 
 
 def parse_tags(text, path="<text>"):
@@ -285,8 +372,12 @@ MAX_WAVELENGTH = 1e6
 
 
 def checked_wavelengths(path, where, start, step, count):
-    """``start + step * arange(count)`` (nm), refused unless every sample is finite and at most :data:`MAX_WAVELENGTH`."""
+    """``start + step * arange(count)`` (nm), refused unless every sample is finite and at most :data:`MAX_WAVELENGTH`,
+    and the samples strictly increase (a step too small to change ``start`` in floating point is refused)."""
     last = start + step * (count - 1)
     if not np.isfinite(last) or last > MAX_WAVELENGTH:
         raise FileFormatError(path, f"{where} samples up to {last:g} nm; expected at most {MAX_WAVELENGTH:g} nm")
-    return start + step * np.arange(count)
+    w = start + step * np.arange(count)
+    if count > 1 and not np.all(np.diff(w) > 0):
+        raise FileFormatError(path, f"{where}: a step of {step:g} nm from {start:g} nm does not separate the samples")
+    return w
