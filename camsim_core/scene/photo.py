@@ -13,17 +13,24 @@ Rendering with sRGB Reflectance", EGSR 2019.
 
 from __future__ import annotations
 
+import os
+import struct
+import warnings
+import zlib
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import FileFormatError, ParameterError
+from ..errors import CamsimError, FileFormatError, ParameterError
+from ..io.files import check_regular
 from ..spectra import resample
 from ._intake import MAX_SCENE_VALUES
 from .scene import Scene
 from .synthetic import DEFAULT_WAVELENGTHS, _illuminant, scale_to_luminance
 
-__all__ = ["scene_from_rgb", "read_photo", "mallett_basis", "PHOTO_SUFFIXES", "SAMPLE_PHOTOS"]
+__all__ = ["scene_from_rgb", "read_photo", "mallett_basis", "opened_image", "PHOTO_SUFFIXES", "SAMPLE_PHOTOS",
+           "PILLOW_ERRORS"]
 
 PHOTO_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 #: Photos that ship with scikit-image, usable as ``load_scene("photo-NAME")``.
@@ -96,36 +103,107 @@ def _sample_photo(name):
     return getattr(data, name)()
 
 
-def read_photo(path, *, max_values=None, **options):
+#: What Pillow and its decoders raise on a malformed file (``PIL.UnidentifiedImageError`` is an OSError;
+#: a PNG's chunk parser raises SyntaxError, its zlib stream zlib.error, a short header struct.error or EOFError).
+PILLOW_ERRORS = (OSError, SyntaxError, ValueError, EOFError, struct.error, zlib.error)
+#: Modes Pillow converts to 8-bit RGB with a photo's meaning (grey, palette, colour, with or without alpha).
+_EIGHT_BIT_MODES = ("1", "L", "LA", "P", "PA", "RGB", "RGBA", "RGBX", "RGBa", "CMYK", "YCbCr")
+#: 16-bit grey modes, read at full precision.
+_SIXTEEN_BIT_MODES = ("I;16", "I;16L", "I;16B", "I;16N")
+
+
+def _without_path(exc, path, shown):
+    """``exc``'s message with ``path`` (a server's temporary folder, say) replaced by ``shown``."""
+    text = str(exc) or type(exc).__name__
+    for p in sorted({os.fspath(path), os.fspath(Path(path).resolve())}, key=len, reverse=True):
+        text = text.replace(p, str(shown))
+    return text
+
+
+@contextmanager
+def opened_image(path, shown=None, kind="image"):
+    """Pillow's image of the file ``path``, opened lazily (its header read, no pixel decoded yet).
+
+    Check ``im.size`` and ``im.mode`` in the ``with`` body before decoding
+    (``im.load()``, ``np.asarray(im)``). Pillow's errors on a malformed
+    file (:data:`PILLOW_ERRORS`) and its decompression-bomb guard (the
+    error, and the warning Pillow gives between ``Image.MAX_IMAGE_PIXELS``
+    and twice that, made an error here) become a
+    :class:`~camsim_core.errors.FileFormatError` naming ``shown`` (default:
+    the file's name), never the folder the file was read from, and saying
+    it is not a readable ``kind``. A
+    :class:`~camsim_core.errors.CamsimError` raised in the body passes
+    through unchanged.
+
+    The warning is made an error with :func:`warnings.catch_warnings`,
+    which changes the process's filters while the file is opened and
+    decoded.
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    shown = Path(path).name if shown is None else shown
+    check_regular(path, shown)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            with Image.open(path) as im:
+                yield im
+    except CamsimError:
+        raise
+    except (Image.DecompressionBombError, Image.DecompressionBombWarning) as exc:
+        raise FileFormatError(shown, f"refused as a possible decompression bomb (Pillow's limit is "
+                                     f"{Image.MAX_IMAGE_PIXELS:,} pixels): {_without_path(exc, path, shown)}") from None
+    except UnidentifiedImageError:
+        raise FileFormatError(shown, f"not a readable {kind} (not an image format Pillow knows)") from None
+    except PILLOW_ERRORS as exc:
+        raise FileFormatError(shown, f"not a readable {kind} ({type(exc).__name__}: "
+                                     f"{_without_path(exc, path, shown)})") from None
+
+
+def read_photo(path, *, max_values=None, shown=None, **options):
     """A photo file (PNG, JPEG, TIFF, BMP; 8 or 16 bits) or ``photo-NAME`` of :data:`SAMPLE_PHOTOS` as a scene.
 
-    The pixel count is read from the header and checked before decoding
-    (pixels x bands at most ``max_values``, and :data:`MAX_SCENE_VALUES`);
-    ``options`` go to :func:`scene_from_rgb`.
+    The pixel count and mode are read from the header and checked before
+    decoding (pixels x bands at most ``max_values``, and
+    :data:`MAX_SCENE_VALUES`); a malformed file, a decompression bomb or an
+    image mode that is not a photo's (floating point, 32-bit integers
+    beyond 16 bits) is a :class:`~camsim_core.errors.FileFormatError`
+    naming ``shown`` (default: the file's name). ``options`` go to
+    :func:`scene_from_rgb`.
     """
     key = str(path)
     if key.lower().startswith("photo-") and key[6:].lower() in SAMPLE_PHOTOS:
         rgb = _sample_photo(key[6:].lower()) / 255.0
         return scene_from_rgb(rgb, name=key.lower(), **options)
-    from PIL import Image, UnidentifiedImageError
-
-    from ..io.files import check_regular
-
     path = Path(path)
+    shown = path.name if shown is None else shown
     n = len(np.atleast_1d(options.get("wavelengths", DEFAULT_WAVELENGTHS)))
     limit = MAX_SCENE_VALUES if max_values is None else min(int(max_values), MAX_SCENE_VALUES)
-    check_regular(path)
-    try:
-        with Image.open(path) as im:
-            w, h = im.size
-            if w * h * n > limit:
-                raise FileFormatError(path, f"{w} x {h} pixels x {n} bands is more than the {limit} values allowed; "
-                                            "downsize the photo")
-            sixteen = im.mode.startswith("I")
-            a = np.asarray(im if sixteen else im.convert("RGB"))
-    except (UnidentifiedImageError, OSError) as exc:
-        raise FileFormatError(path, f"not a readable image ({exc})") from None
+    with opened_image(path, shown) as im:
+        w, h = im.size
+        if w < 1 or h < 1:
+            raise FileFormatError(shown, f"declares {w} x {h} pixels; expected at least one")
+        if w * h * n > limit:
+            raise FileFormatError(shown, f"{w} x {h} pixels x {n} bands is more than the {limit} values allowed; "
+                                         "downsize the photo")
+        if im.mode in _SIXTEEN_BIT_MODES or im.mode == "I":
+            a = np.asarray(im)
+            full = 65535.0
+        elif im.mode in _EIGHT_BIT_MODES:
+            im.load()  # a transparency chunk after the pixels is read with them
+            # RGBA first when a palette marks a transparent colour (Pillow's advice)
+            a = np.asarray(im.convert("RGBA" if "transparency" in im.info else "RGB"))
+            full = 255.0
+        else:
+            raise FileFormatError(shown, f"image mode {im.mode!r} is not a photo's; expected 8 or 16 bits per channel "
+                                         "(grey, palette or RGB)")
+    if a.shape[:2] != (h, w) or a.dtype.kind not in "biu":
+        raise FileFormatError(shown, f"decoded to an array of shape {a.shape} and type {a.dtype}, "
+                                     f"expected {h} x {w} whole numbers")
+    if a.size and (a.min() < 0 or a.max() > full):
+        raise FileFormatError(shown, f"holds values {a.min()}..{a.max()}, outside 0..{full:g} of "
+                                     f"{'16' if full > 255 else '8'}-bit data")
     if a.ndim == 2:
         a = np.repeat(a[:, :, None], 3, axis=2)
-    rgb = a.astype(float) / (65535.0 if sixteen else 255.0)
-    return scene_from_rgb(np.clip(rgb[:, :, :3], 0, 1), name=path.stem, **options)
+    rgb = a[:, :, :3].astype(float) / full
+    return scene_from_rgb(rgb, name=path.stem, **options)
