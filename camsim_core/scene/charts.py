@@ -11,16 +11,20 @@ camera blurs. The Macbeth chart is :func:`~camsim_core.scene.macbeth_scene`.
 
 from __future__ import annotations
 
+import math
+import numbers
+
 import numpy as np
 
 from ..datasets.surfaces import munsell
 from ..errors import ParameterError
 from ..spectra import Spectrum, resample
-from .scene import Scene
+from ._intake import MAX_SCENE_VALUES
+from .scene import WAVELENGTH_RANGE, Scene
 from .synthetic import DEFAULT_WAVELENGTHS, _illuminant, scale_to_luminance
 
 __all__ = ["slanted_edge_scene", "zone_plate_scene", "uniform_scene", "munsell_scene", "chart", "parse_chart", "chart_name", "chart_shape", "chart_defaults",
-           "MAX_CHART_VALUES", "CHART_NAMES",
+           "MAX_CHART_VALUES", "MAX_OPTION_CHARS", "MAX_LUMINANCE", "CHART_NAMES",
            "CHART_ANGULAR_RESOLUTION"]
 
 #: Default chart sampling, px/deg: 4 x the DCS-200's 102.6.
@@ -28,19 +32,142 @@ CHART_ANGULAR_RESOLUTION = (410.4, 410.4)
 CHART_NAMES = ("slanted-edge", "zone-plate", "uniform", "munsell")
 
 
+#: Longest value (characters) of one option in a chart name: numbers, sizes and illuminant names are short.
+MAX_OPTION_CHARS = 64
+#: Brightest chart white, cd/m^2 (the sun's disk is about 1.6e9).
+MAX_LUMINANCE = 1e10
+
+
+def _text(value, limit=40):
+    """``repr(value)`` cut to ``limit`` characters, for a message (an option may be megabytes long)."""
+    try:
+        text = repr(value)
+    except ValueError:  # an integer of more digits than Python prints
+        return f"<{type(value).__name__}>"
+    return text if len(text) <= limit else f"{text[: limit - 3]}... ({len(text):,} characters)"
+
+
+def _real(name, value, what):
+    """``value`` (a real number, or its text) as a finite float, else a ParameterError naming option ``name``.
+
+    ``what`` says what the option is ("a number of degrees") for the message.
+    """
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
+    if isinstance(value, str):
+        t = value.strip()
+        if not t:
+            raise ParameterError(name, f"expected {what}, got an empty value")
+        if len(t) > MAX_OPTION_CHARS:
+            raise ParameterError(name, f"expected {what}, got a value of {len(t):,} characters")
+        try:
+            x = float(t) if t.isascii() else None
+        except ValueError:
+            x = None
+        if x is None:
+            raise ParameterError(name, f"expected {what}, got {_text(value)}")
+    elif isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise ParameterError(name, f"expected {what}, got {_text(value)}")
+    else:
+        try:
+            x = float(value)
+        except OverflowError:  # an integer beyond the floats
+            x = math.inf
+    if not math.isfinite(x):
+        raise ParameterError(name, f"expected {what}, got {_text(value)}, which is not a finite number")
+    return x
+
+
+def _whole(name, value, what, low):
+    """``value`` as a whole number >= ``low`` (a Python int, so that sizes multiply without overflow)."""
+    if isinstance(value, (numbers.Integral, np.integer)) and not isinstance(value, (bool, np.bool_)):
+        n = int(value)
+    else:
+        x = _real(name, value, what)
+        if x != math.floor(x):
+            raise ParameterError(name, f"expected {what}, got {_text(value)}")
+        n = int(x)
+    if n < low:
+        raise ParameterError(name, f"expected {what}, got {_text(value)}")
+    return n
+
+
+def _wavelengths(value):
+    """The chart's sampling (nm): finite, within the scene's WAVELENGTH_RANGE, strictly increasing."""
+    try:
+        w = np.atleast_1d(np.asarray(value, dtype=float))
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError("wavelengths", f"expected a list of wavelengths in nm, got {_text(value)}") from None
+    low, high = WAVELENGTH_RANGE
+    if (w.ndim != 1 or w.size == 0 or not np.all(np.isfinite(w)) or w.min() < low or w.max() > high
+            or np.any(np.diff(w) <= 0)):
+        raise ParameterError("wavelengths", f"expected strictly increasing wavelengths from {low:g} to {high:g} nm, "
+                                            f"got {_text(value)}")
+    return w
+
+
+def _geometry(distance, angular_resolution):
+    """``distance`` (m) and ``angular_resolution`` (px/deg, one number or x, y) checked: finite and positive."""
+    d = _real("distance", distance, "a distance in metres")
+    if d <= 0:
+        raise ParameterError("distance", f"must be a positive number of metres, got {_text(distance)}")
+    ar = list(angular_resolution) if isinstance(angular_resolution, (list, tuple, np.ndarray)) else [angular_resolution]
+    if len(ar) not in (1, 2):
+        raise ParameterError("angular_resolution", f"expected one or two numbers of pixels per degree, "
+                                                   f"got {_text(angular_resolution)}")
+    v = [_real("angular_resolution", a, "pixels per degree") for a in ar]
+    if min(v) <= 0:
+        raise ParameterError("angular_resolution", f"must be positive pixels per degree, got {_text(angular_resolution)}")
+    return d, (v[0], v[-1])
+
+
 def _light(illuminant, luminance, wavelengths):
-    if not (np.isfinite(luminance) and luminance > 0):
-        raise ParameterError("luminance", f"must be a positive number of cd/m^2, got {luminance!r}")
-    w = np.asarray(wavelengths, float)
+    """(wavelengths, illuminant Spectrum, its radiance per band giving a white ``luminance`` cd/m^2), checked."""
+    lum = _real("luminance", luminance, "a luminance in cd/m^2")
+    if not 0 < lum <= MAX_LUMINANCE:
+        raise ParameterError("luminance", f"must be a positive number of cd/m^2 up to {MAX_LUMINANCE:g}, "
+                                          f"got {_text(luminance)}")
+    if not isinstance(illuminant, Spectrum):
+        text = str(illuminant).strip()
+        if not text or len(text) > MAX_OPTION_CHARS:
+            raise ParameterError("illuminant", f"expected an illuminant's name, got {_text(illuminant)}")
+        illuminant = text
+    w = _wavelengths(wavelengths)
     spd, e = _illuminant(illuminant, w)
-    return w, spd, e * scale_to_luminance(w, e, luminance)
+    return w, spd, e * scale_to_luminance(w, e, lum)
 
 
 def _size(size, name="size"):
-    s = np.broadcast_to(np.asarray(size), (2,))
-    if not all(float(v) == int(v) and int(v) >= 8 for v in s):
-        raise ParameterError(name, f"must be a whole number of pixels >= 8 (or (height, width)), got {size!r}")
-    return int(s[0]), int(s[1])
+    """(height, width) of ``size``: one whole number of pixels >= 8, two of them, or their text ``"HxW"``."""
+    what = "a whole number of pixels >= 8 (or HEIGHTxWIDTH)"
+    if isinstance(size, str) and "x" in size.lower():
+        if len(size) > MAX_OPTION_CHARS:
+            raise ParameterError(name, f"expected {what}, got a value of {len(size):,} characters")
+        parts = size.lower().split("x")
+        try:
+            if len(parts) != 2:
+                raise ParameterError(name, "")
+            hw = [_whole(name, v, what, 8) for v in parts]
+        except ParameterError:
+            raise ParameterError(name, f"expected {what}, got {_text(size)}") from None
+        return hw[0], hw[1]
+    s = list(size) if isinstance(size, (list, tuple, np.ndarray)) else [size]
+    if len(s) not in (1, 2):
+        raise ParameterError(name, f"expected {what}, got {_text(size)}")
+    hw = [_whole(name, v, what, 8) for v in s]
+    return hw[0], hw[-1]
+
+
+def _count(n):
+    """A whole number for a message: in full, or its order of magnitude when it has too many digits to print."""
+    return f"{n}" if n < 10**30 else f"about 1e{int(n.bit_length() * math.log10(2))}"
+
+
+def _check_values(h, w, planes, limit=MAX_SCENE_VALUES, what="a scene may have"):
+    """Refuse a chart of more than ``limit`` values before anything is allocated."""
+    if h * w * planes > limit:
+        raise ParameterError("size", f"{_count(h)} x {_count(w)} pixels x {planes} wavelengths is more than the "
+                                     f"{limit:,} values {what}")
 
 
 def _grey_scene(refl, w, spd, e, name, comments, distance, angular_resolution):
@@ -75,13 +202,18 @@ def slanted_edge_scene(size=512, *, angle=5.0, contrast=4.0, light=0.8, illumina
     :func:`edge_coverage`), so the chart's own MTF is that of the pixel aperture.
     """
     h, wd = _size(size)
+    _check_values(h, wd, _wavelengths(wavelengths).size)
+    angle = _real("angle", angle, "a number of degrees")
     if not (2.0 <= abs(angle) <= 45.0):
         raise ParameterError("angle", f"must be 2 to 45 degrees from vertical (ISO 12233 uses about 5), got {angle!r}")
-    if not (np.isfinite(contrast) and contrast >= 1):
+    contrast = _real("contrast", contrast, "a ratio light / dark")
+    if not contrast >= 1:
         raise ParameterError("contrast", f"must be a ratio light / dark >= 1, got {contrast!r}")
+    light = _real("light", light, "a reflectance")
     if not 0 < light <= 1:
         raise ParameterError("light", f"reflectance must lie in (0, 1], got {light!r}")
     w, spd, e = _light(illuminant, luminance, wavelengths)
+    distance, angular_resolution = _geometry(distance, angular_resolution)
     dark = light / contrast
     left = edge_coverage((h, wd), angle)
     refl = dark * left + light * (1.0 - left)
@@ -97,11 +229,18 @@ def zone_plate_scene(size=512, *, max_frequency=0.5, mean=0.5, amplitude=0.4, il
     ``max_frequency`` cycles per pixel at the middle of each side.
     """
     h, wd = _size(size)
+    _check_values(h, wd, _wavelengths(wavelengths).size)
+    max_frequency = _real("max_frequency", max_frequency, "a number of cycles per pixel")
     if not 0 < max_frequency <= 0.5:
         raise ParameterError("max_frequency", f"must lie in (0, 0.5] cycles per pixel, got {max_frequency!r}")
+    mean = _real("mean", mean, "a reflectance")
+    if not 0 <= mean <= 1:
+        raise ParameterError("mean", f"reflectance must lie in [0, 1], got {mean!r}")
+    amplitude = _real("amplitude", amplitude, "a reflectance amplitude")
     if not (0 <= amplitude <= mean and mean + amplitude <= 1):
         raise ParameterError("amplitude", f"mean {mean} +- amplitude {amplitude} must stay within [0, 1]")
     w, spd, e = _light(illuminant, luminance, wavelengths)
+    distance, angular_resolution = _geometry(distance, angular_resolution)
     y, x = np.mgrid[0:h, 0:wd]
     r2 = (x - (wd - 1) / 2) ** 2 + (y - (h - 1) / 2) ** 2
     k = max_frequency / (min(h, wd) / 2)
@@ -114,7 +253,10 @@ def uniform_scene(size=128, *, luminance=100.0, illuminant="D65", wavelengths=DE
                   angular_resolution=CHART_ANGULAR_RESOLUTION):
     """A uniform field of ``luminance`` cd/m^2: a white reflector under the illuminant (for SNR)."""
     h, wd = _size(size)
+    _check_values(h, wd, _wavelengths(wavelengths).size)
     w, spd, e = _light(illuminant, luminance, wavelengths)
+    distance, angular_resolution = _geometry(distance, angular_resolution)
+    luminance = _real("luminance", luminance, "a luminance in cd/m^2")  # checked by _light: a float for the comment
     return _grey_scene(np.ones((h, wd)), w, spd, e, "uniform", f"uniform field, {luminance:g} cd/m^2", distance,
                        angular_resolution)
 
@@ -125,15 +267,16 @@ def munsell_scene(rows=4, cols=6, *, patch_size=32, border=8, chips=None, illumi
 
     ``chips``: indices into the 1269 chips; by default ``rows x cols`` evenly spaced ones.
     """
-    if rows < 1 or cols < 1 or patch_size < 1 or border < 0:
-        raise ParameterError("rows", "rows, cols and patch_size must be >= 1, border >= 0")
+    rows, cols, patch_size, border = _grid(rows, cols, patch_size, border)
+    step = patch_size + border
+    _check_values(border + rows * step, border + cols * step, _wavelengths(wavelengths).size)
+    w, spd, e = _light(illuminant, luminance, wavelengths)
+    distance, angular_resolution = _geometry(distance, angular_resolution)
     mw, refl = munsell()
-    idx = np.linspace(0, refl.shape[0] - 1, rows * cols).round().astype(int) if chips is None else np.asarray(chips, int)
+    idx = np.linspace(0, refl.shape[0] - 1, rows * cols).round().astype(int) if chips is None else _chips(chips)
     if idx.size != rows * cols or idx.min() < 0 or idx.max() >= refl.shape[0]:
         raise ParameterError("chips", f"need {rows * cols} indices in 0..{refl.shape[0] - 1}")
-    w, spd, e = _light(illuminant, luminance, wavelengths)
     r = resample(mw, refl[idx], w)
-    step = patch_size + border
     data = np.zeros((border + rows * step, border + cols * step, w.size))
     for i in range(idx.size):
         row, col = divmod(i, cols)
@@ -143,31 +286,69 @@ def munsell_scene(rows=4, cols=6, *, patch_size=32, border=8, chips=None, illumi
                  f"{rows} x {cols} Munsell chips {idx.tolist()}")
 
 
+def _grid(rows, cols, patch_size, border):
+    """The Munsell grid's whole numbers, checked: rows, cols and patch_size >= 1, border >= 0."""
+    note = "(rows, cols, patch_size and border are whole numbers)"
+    return (_whole("rows", rows, f"a whole number >= 1 {note}", 1), _whole("cols", cols, f"a whole number >= 1 {note}", 1),
+            _whole("patch_size", patch_size, f"a whole number of pixels >= 1 {note}", 1),
+            _whole("border", border, f"a whole number of pixels >= 0 {note}", 0))
+
+
+def _chips(chips):
+    """Chip indices: one whole number or a list of them."""
+    items = list(chips) if isinstance(chips, (list, tuple, np.ndarray)) else [chips]
+    return np.array([_whole("chips", c, "whole chip indices", 0) for c in items], dtype=np.int64)
+
+
 _CHARTS = {"slanted-edge": slanted_edge_scene, "zone-plate": zone_plate_scene, "uniform": uniform_scene,
            "munsell": munsell_scene}
+
+
+def _option_value(key, v):
+    """An option's text as a number where it is one (``size`` may be ``HxW``), else the text itself."""
+    if key == "size" and "x" in v.lower():
+        parts = v.lower().split("x")
+        if len(parts) == 2 and all(p.strip().isascii() and p.strip().isdigit() for p in parts):
+            return tuple(int(p) for p in parts)
+        return v  # refused by the chart, naming the option
+    if not v.isascii():
+        return v
+    try:
+        return int(v)
+    except ValueError:
+        pass
+    try:
+        return float(v)
+    except ValueError:
+        return v
 
 
 def parse_chart(text):
     """``"NAME:key=value,key=value"`` (e.g. ``"slanted-edge:angle=10,contrast=2"``) -> (name, options).
 
-    Values are numbers where they parse as numbers (``size`` may be ``HxW``),
-    else strings (an illuminant name).
+    Values are numbers where they parse as numbers (``size`` may be
+    ``HxW``), else strings (an illuminant name); the chart checks each.
+    An option without ``=`` or a name, given twice, empty, or longer than
+    :data:`MAX_OPTION_CHARS` is refused here with a
+    :class:`~camsim_core.errors.ParameterError` naming it.
     """
-    name, _, rest = str(text).partition(":")
+    text = str(text)
+    name, _, rest = text.partition(":")
     options = {}
     for item in filter(None, (t.strip() for t in rest.split(","))):
         key, eq, value = item.partition("=")
-        if not eq or not key.strip():
-            raise ParameterError("chart", f"option {item!r} of {text!r} must be key=value")
-        v = value.strip()
-        if key.strip() == "size" and "x" in v.lower():
-            v = tuple(int(p) for p in v.lower().split("x"))
-        else:
-            try:
-                v = float(v) if any(c in v for c in ".eE") else int(v)
-            except ValueError:
-                pass
-        options[key.strip()] = v
+        key, v = key.strip(), value.strip()
+        if not eq or not key:
+            raise ParameterError("chart", f"option {_text(item)} of {_text(text)} must be key=value")
+        if len(key) > MAX_OPTION_CHARS:
+            raise ParameterError("chart", f"option name {_text(key)} is longer than {MAX_OPTION_CHARS} characters")
+        if key in options:
+            raise ParameterError(key, f"given more than once in {_text(text)}")
+        if not v:
+            raise ParameterError(key, "has no value (expected key=value)")
+        if len(v) > MAX_OPTION_CHARS:
+            raise ParameterError(key, f"value of {len(v):,} characters is longer than the {MAX_OPTION_CHARS} allowed")
+        options[key] = _option_value(key, v)
     return name.strip().lower(), options
 
 
@@ -183,12 +364,13 @@ def _generator(name, options):
     key, parsed = parse_chart(name)
     options = {**parsed, **options}
     if key not in _CHARTS:
-        raise ParameterError("chart", f"unknown chart {name!r}; known: {', '.join(CHART_NAMES)}")
+        raise ParameterError("chart", f"unknown chart {_text(key)}; known: {', '.join(CHART_NAMES)}")
     fn = _CHARTS[key]
     params = inspect.signature(fn).parameters
-    unknown = sorted(set(options) - set(params))
+    unknown = sorted(str(k) for k in set(options) - set(params))
     if unknown:
-        raise ParameterError("chart", f"{key} has no option {', '.join(unknown)}; valid: {', '.join(params)}")
+        names = ", ".join(k if len(k) <= 40 else _text(k) for k in unknown)
+        raise ParameterError("chart", f"{key} has no option {names}; valid: {', '.join(params)}")
     return key, fn, options, {k: p.default for k, p in params.items()}
 
 
@@ -202,14 +384,11 @@ def chart_shape(name, **options):
     """``(height, width, planes)`` of the chart ``chart(name, **options)`` would make, without making it."""
     key, _, options, defaults = _generator(name, options)
     o = {**defaults, **options}
-    planes = np.size(o["wavelengths"])
     if key == "munsell":
-        rows, cols, patch, border = (o[k] for k in ("rows", "cols", "patch_size", "border"))
-        if not all(isinstance(v, (int, np.integer)) for v in (rows, cols, patch, border)):
-            raise ParameterError("rows", "rows, cols, patch_size and border must be whole numbers")
+        rows, cols, patch, border = _grid(*(o[k] for k in ("rows", "cols", "patch_size", "border")))
         step = patch + border
-        return border + rows * step, border + cols * step, planes
-    return (*_size(o["size"]), planes)
+        return border + rows * step, border + cols * step, _wavelengths(o["wavelengths"]).size
+    return (*_size(o["size"]), _wavelengths(o["wavelengths"]).size)
 
 
 def chart_name(name, options):
@@ -232,8 +411,6 @@ def chart(name, max_values=MAX_CHART_VALUES, **options):
     before anything is allocated.
     """
     h, w, planes = chart_shape(name, **options)
-    if h * w * planes > max_values:
-        raise ParameterError("size", f"{h} x {w} pixels x {planes} wavelengths is more than the "
-                                     f"{max_values:,} values a chart may have here")
+    _check_values(h, w, planes, max_values, "a chart may have here")
     _, fn, options, _ = _generator(name, options)
     return fn(**options)
