@@ -95,7 +95,42 @@ def _pages_without_mathjax():
     resources._panel_use_mathjax = lambda roots: False
 
 
+def _link_values_kept_as_text_when_unreadable():
+    """A link's value Panel cannot convert is kept as text, not an HTTP 500.
+
+    Panel reads the address's values with ``panel.util.parse_query``, which
+    turns a value of digits into an int: one of more than 4,300 digits raised
+    ValueError (Python's limit on ``int()`` of a text) while the page was being
+    made, and the server answered HTTP 500 with a traceback in its log. Kept as
+    text, the value reaches the explorer's own checks: the page says the link's
+    value is too long (``_long_url_values``) or refused (``on_error``).
+    """
+    import panel.io.location as location
+
+    parse = getattr(location, "parse_query", None)
+    if parse is None or getattr(parse, "camsim", False):
+        return
+    from urllib.parse import parse_qsl, urlencode
+
+    def parse_query(query):
+        try:
+            return parse(query)
+        except Exception:
+            pass
+        values = {}
+        for key, value in dict(parse_qsl(str(query)[1:])).items():
+            try:
+                values.update(parse("?" + urlencode({key: value})))
+            except Exception:
+                values[key] = value
+        return values
+
+    parse_query.camsim = True
+    location.parse_query = parse_query
+
+
 _pages_without_mathjax()
+_link_values_kept_as_text_when_unreadable()
 _panel_tuning.apply()
 
 
@@ -263,9 +298,9 @@ def _controls(state, results):
     upload = BoundedUpload(accept=".npz,.zip,.mat,.png,.jpg,.jpeg", max_bytes=limits.upload.max_upload_bytes, css_classes=["w-upload"],
                            sizing_mode="stretch_width", visible=_options["upload"])
 
-    def on_upload(event):
-        if upload.value is not None:
-            state.add_upload(upload.filename, upload.value)
+    def on_upload(event):  # the widget lets go of the bytes when this returns (parsed or refused)
+        if event.new is not None:
+            state.add_upload(upload.filename, event.new)
 
     def on_refused(event):
         if upload.refused:
@@ -354,8 +389,8 @@ def _controls(state, results):
                                   sizing_mode="stretch_width")
 
         def on_params(event):
-            if params_up.value is not None:
-                state.from_json(params_up.value.decode("utf-8", errors="replace"))
+            if event.new is not None:
+                state.from_json(event.new.decode("utf-8", errors="replace"))
 
         def on_params_refused(event):
             if params_up.refused:
@@ -552,12 +587,13 @@ def create_app(scene=None):
     state.recompute()  # in the background in a server: the page shows at once, marked as computing
     if pn.state.location is not None:
         def on_error(values):
-            state.message = f"The link held parameters that were refused: {str(values)[:300]}"
+            shown = ", ".join(f"{k} {state_module.short_repr(v, 40)}" for k, v in values.items())
+            _tell(state, f"The link held parameters that were refused: {shown[:300]}")
 
         too_long = _long_url_values(pn.state.location.search)
         if too_long:
-            state.message = (f"The link's values for {', '.join(too_long)} are longer than "
-                             f"{state_module.LIMITS.max_text} characters and were ignored")
+            _tell(state, f"The link's values for {', '.join(too_long)} are longer than "
+                         f"{state_module.LIMITS.max_text} characters and were ignored")
         else:
             _offer_linked_chart(state, pn.state.location.search)
             _sync_address(state, URL_PARAMETERS + COMPARE_PARAMETERS, on_error)
@@ -610,6 +646,22 @@ def create_app(scene=None):
         pn.state.on_session_destroyed(lambda ctx, state=state, page=body, template=template:
                                       _release(state, page, template))
     return template
+
+
+def _tell(state, text):
+    """Show ``text`` in the page's alert, once the first result is in if it is still being computed (a
+    result shown clears the alert: the link's refusals would be gone before the page showed them)."""
+    if state.result is not None and not state.computing:
+        state.message = text
+        return
+    watchers = []
+
+    def first_result(event):
+        state.param.unwatch(watchers.pop())
+        state.message = text
+
+    watchers.append(state.param.watch(first_result, "result"))
+    state.message = text
 
 
 def _undelayed(objects):

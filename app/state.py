@@ -42,6 +42,7 @@ from camsim_core.review.design import (CAMERA_CHOICES, GAUSSIAN_DEFAULTS, ILLUMI
 from camsim_core.camera.physical import PHYSICAL_NAMES, sensor_values
 from camsim_core.scene import scale_light
 from camsim_core.review.sweep import check_sweep
+from camsim_core.metrics.viewing import parse_viewing
 
 __all__ = ["ExplorerState", "Runner", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_PARAMETERS", "COMPARE_PARAMETERS",
            "parse_tile", "parse_numbers", "load_upload", "ServerLimits", "LIMITS", "json_depth", "exposure_warnings",
@@ -113,6 +114,62 @@ class ServerLimits:
 #: The limits in force in this process (``camsim serve`` replaces them).
 LIMITS = ServerLimits()
 
+#: S-CIELAB samples per degree a viewing may give in the explorer: outside, the filters' sizes run to
+#: gigabytes (``spd:1e-300``) or their time to seconds per change.
+VIEWING_SAMPLES_PER_DEGREE = (0.01, 10_000.0)
+
+
+def check_text(name, value):
+    """A text parameter within ``LIMITS.max_text`` characters (ParameterError naming it otherwise)."""
+    if isinstance(value, str) and len(value) > LIMITS.max_text:
+        raise ParameterError(name, f"is {len(value)} characters long; at most {LIMITS.max_text} are allowed")
+    return value
+
+
+def check_viewing(text, camera):
+    """The samples per degree the viewing ``text`` gives ``camera``, within :data:`VIEWING_SAMPLES_PER_DEGREE`."""
+    rate = parse_viewing(text).rate(camera)
+    lo, hi = VIEWING_SAMPLES_PER_DEGREE
+    if not lo <= rate <= hi:
+        raise ParameterError("viewing", f"{short_repr(text)} gives {rate:.3g} samples per degree; the explorer takes "
+                                        f"{lo:g} to {hi:g}")
+    return rate
+
+
+def short_repr(value, limit=60):
+    """``repr(value)`` cut to about ``limit`` characters (a message never quotes a 100,000-character text)."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(str(value))} characters)"
+
+
+class _NotFinite:
+    """What the parameters file's reader makes of NaN, Infinity and numbers beyond a float's range or
+    :func:`int`'s digit limit: refused by :meth:`ExplorerState.from_json`, naming the entry."""
+
+    def __init__(self, text):
+        self.text = text if len(text) <= 40 else f"a number of {len(text)} digits"
+
+
+def _json_float(text):
+    value = float(text)
+    return value if math.isfinite(value) else _NotFinite(text)
+
+
+def _json_int(text):
+    return int(text) if len(text.lstrip("-")) <= 100 else _NotFinite(text)
+
+
+def _not_finite_entry(value, path):
+    """The path of the first :class:`_NotFinite` in ``value`` (a parsed parameters file), or None."""
+    if isinstance(value, _NotFinite):
+        return f"{path} ({value.text})"
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for key, item in items:
+        found = _not_finite_entry(item, f"{path}[{key}]" if isinstance(key, int) else f"{path}.{key}" if path else key)
+        if found:
+            return found
+    return None
+
 
 def parse_numbers(text, name):
     """Comma- or space-separated finite numbers from a text field (at most ``LIMITS.max_sensors``)."""
@@ -163,7 +220,8 @@ class ExplorerState(param.Parameterized):
 
     # scene
     scene = param.Selector(default="cacaphony290", objects=list(cc.SCENE_NAMES), doc="Shipped scene, or an uploaded one")
-    wavelength = param.Number(default=550.0, doc="Wavelength (nm) of the plane shown in the scene view")
+    wavelength = param.Number(default=550.0, bounds=(1.0, 1e5),
+                              doc="Wavelength (nm) of the plane shown in the scene view (finite: NaN is refused)")
     light = param.Number(default=1.0, bounds=(1e-3, 1e3), step=0.1,
                          doc="Light level: a factor of the scene's own (radiance and illuminant scaled)")
     # camera
@@ -319,9 +377,19 @@ class ExplorerState(param.Parameterized):
             self.runner.submit(job)
 
     def _job(self):
-        """What to compute: the parameters and the engine objects they describe (cheap to build)."""
-        return {"id": next(self._requests), "params": self.design_params(), "scene": self.scene_object(),
-                "camera": self.camera_object(), "processing": self.processing()}
+        """What to compute: the parameters and the engine objects they describe (cheap to build).
+
+        Every text parameter is held to ``LIMITS.max_text`` characters (however it was set: a widget, a
+        link, the address changed in the page) and the viewing to :data:`VIEWING_SAMPLES_PER_DEGREE`.
+        """
+        params = self.design_params()
+        for name, value in params.items():
+            if isinstance(self.param[name], param.String):
+                check_text(name, value)
+        camera = self.camera_object()
+        check_viewing(self.viewing, camera)
+        return {"id": next(self._requests), "params": params, "scene": self.scene_object(),
+                "camera": camera, "processing": self.processing()}
 
     def _compute(self, job):
         """Run the cached pipeline (the only slow part; safe in a worker thread: one pipeline per session).
@@ -379,7 +447,7 @@ class ExplorerState(param.Parameterized):
         """Say why, and put the parameters back to ``back_to`` (default: those of the result shown)."""
         target = self.shown if back_to is None else back_to
         back = {k: v for k, v in target.items() if getattr(self, k) != v}
-        changed = ", ".join(f"{k} {getattr(self, k)!r} -> {v!r}" for k, v in back.items())
+        changed = ", ".join(f"{k} {short_repr(getattr(self, k))} -> {short_repr(v)}" for k, v in back.items())
         self.message = f"Refused: {reason}" + (f" (put back: {changed})" if changed else "")
         if back:
             self.defer(lambda: self._restore(back))
@@ -466,6 +534,10 @@ class ExplorerState(param.Parameterized):
 
     def add_upload(self, filename, content):
         """Validate and select an uploaded scene; on failure set ``message`` and keep the current scene."""
+        name = str(filename)
+        if any(ord(c) < 32 or ord(c) == 127 for c in name):  # a NUL makes every file call raise ValueError
+            self.message = f"Upload refused: the file name {short_repr(name)} holds a control character"
+            return False
         try:
             scene = load_upload(filename, content)
         except CamsimError as exc:
@@ -563,13 +635,18 @@ class ExplorerState(param.Parameterized):
         if json_depth(text) > LIMITS.max_json_depth:
             self.message = f"Parameters file is nested deeper than {LIMITS.max_json_depth} levels"
             return False
-        try:
-            values = json.loads(text)
+        try:  # NaN, Infinity and numbers beyond a float (1e999) are not JSON numbers: refused below, by name
+            values = json.loads(text, parse_constant=_NotFinite, parse_float=_json_float, parse_int=_json_int)
         except (ValueError, UnicodeDecodeError, RecursionError) as exc:
             self.message = f"Parameters file is not JSON: {exc}"
             return False
         if not isinstance(values, dict):
             self.message = "Parameters file must hold a JSON object {name: value}"
+            return False
+        bad = _not_finite_entry(values, "")
+        if bad:
+            self.message = (f"Parameters file refused: {bad[:200]}: numbers must be finite (no NaN or Infinity) "
+                            "and of at most 100 digits")
             return False
         unknown = sorted(set(values) - set(URL_PARAMETERS) - set(COMPARE_PARAMETERS))
         if unknown:

@@ -60,7 +60,7 @@ def test_origins_for_a_class_are_the_printed_host_never_a_wildcard():
     origins = allowed_origins("0.0.0.0", 5006, ["review.example.org"])
     assert "*" not in " ".join(origins)
     assert f"{public_host('0.0.0.0')}:5006" in origins and "review.example.org:5006" in origins
-    assert set(allowed_origins("127.0.0.1", 5006)) == {"localhost:5006", "127.0.0.1:5006"}
+    assert set(allowed_origins("127.0.0.1", 5006)) == {"localhost:5006", "127.0.0.1:5006", "[::1]:5006"}
     with pytest.raises(ParameterError, match="without wildcards"):
         allowed_origins("0.0.0.0", 5006, ["*"])
 

@@ -131,11 +131,21 @@ def public_host(address):
     return address
 
 
+def _url_host(host):
+    """``host`` as a URL writes it: an IPv6 address in brackets."""
+    return f"[{host}]" if ":" in host and not host.startswith("[") else host
+
+
 def allowed_origins(address, port, extra=()):
-    """Websocket origins allowed: the printed URL's host (and loopback names), plus ``extra``; never ``*``."""
-    hosts = {"localhost", "127.0.0.1", public_host(address)}
+    """Hosts (``HOST:PORT``) the server answers and websocket origins it accepts: the printed URL's host and
+    the loopback names (``localhost``, ``127.0.0.1``, ``[::1]``), plus ``extra``; never ``*``.
+
+    The same list serves both checks: the websocket's ``Origin`` (Bokeh's) and every request's ``Host``
+    header (:func:`refuse_other_hosts`).
+    """
+    hosts = {"localhost", "127.0.0.1", "[::1]", _url_host(public_host(address))}
     if address not in ("0.0.0.0", "", "::"):
-        hosts.add(address)
+        hosts.add(_url_host(address))
     origins = {f"{h}:{port}" for h in hosts}
     for e in extra:
         e = str(e).strip()
@@ -143,6 +153,44 @@ def allowed_origins(address, port, extra=()):
             raise ParameterError("--allow-websocket-origin", f"expected HOST or HOST:PORT without wildcards, got {e!r}")
         origins.add(e if ":" in e else f"{e}:{port}")
     return sorted(origins)
+
+
+#: The answer to a request naming another host (see :func:`refuse_other_hosts`).
+OTHER_HOST_MESSAGE = ("403: this server answers only to its own address; a page reached under another name (DNS "
+                      "rebinding) gets nothing. camsim serve --allow-websocket-origin HOST[:PORT] adds a name.\n")
+
+
+def host_allowed(host, allowed):
+    """Whether a request's ``Host`` header (``HOST[:PORT]``; no port means 80) is one of ``allowed``."""
+    from bokeh.server.util import check_allowlist
+
+    host = str(host or "").strip().lower()
+    return bool(host) and check_allowlist(host, [a.lower() for a in allowed])
+
+
+def refuse_other_hosts(tornado_app, allowed):
+    """Answer 403 (a plain text) to every request whose ``Host`` is not in ``allowed``: the page, the
+    websocket, the static files, every route of ``tornado_app`` (the server's Tornado application).
+
+    A page of another site whose name is made to point at this machine (DNS rebinding) is, to the
+    browser, of that site: its requests name that site in ``Host``, and for the websocket in ``Origin``
+    too, which Tornado accepts when it equals the ``Host``. Checked first, before any handler runs (a
+    refused request makes no session).
+    """
+    from tornado.routing import Matcher, Rule
+    from tornado.web import RequestHandler
+
+    class OtherHost(Matcher):
+        def match(self, request):
+            return None if host_allowed(request.host, allowed) else {}
+
+    class Refuse(RequestHandler):
+        def prepare(self):
+            self.set_status(403)
+            self.set_header("Content-Type", "text/plain; charset=utf-8")
+            self.finish(OTHER_HOST_MESSAGE)
+
+    tornado_app.default_router.rules.insert(0, Rule(OtherHost(), Refuse))
 
 
 def _return_freed_memory_to_the_system():
@@ -291,9 +339,16 @@ def run(args):
         if _spare_session.install():
             _spare_session.prepare_at_start(f"{public_host(args.address)}:{args.port}")
     print(f"camsim explorer on http://{public_host(args.address)}:{args.port}/ (Ctrl-C to stop)", flush=True)
-    pn.serve(main.create_app, port=args.port, address=args.address, show=args.show,
-             websocket_origin=origins, title="camsim explorer", verbose=False,
+    server = pn.serve(main.create_app, port=args.port, address=args.address, show=args.show, start=False,
+             websocket_origin=[o for o in origins if not o.startswith("[")],  # Bokeh parses no IPv6 address
+             title="camsim explorer", verbose=False,
              websocket_max_message_size=WEBSOCKET_MAX_MESSAGE_BYTES,
              unused_session_lifetime_milliseconds=idle_ms,
              check_unused_sessions_milliseconds=max(500, min(idle_ms, 10_000)))
+    refuse_other_hosts(server._tornado, origins)  # before the server takes its first request
+    server.start()
+    try:
+        server.io_loop.start()
+    except RuntimeError:  # as pn.serve: a loop already running
+        pass
     return 0
