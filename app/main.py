@@ -17,6 +17,7 @@ from __future__ import annotations
 import io
 import json
 import logging
+import threading
 import weakref
 from functools import partial
 
@@ -298,9 +299,28 @@ def _controls(state, results):
     upload = BoundedUpload(accept=".npz,.zip,.mat,.png,.jpg,.jpeg", max_bytes=limits.upload.max_upload_bytes, css_classes=["w-upload"],
                            sizing_mode="stretch_width", visible=_options["upload"])
 
-    def on_upload(event):  # the widget lets go of the bytes when this returns (parsed or refused)
-        if event.new is not None:
-            state.add_upload(upload.filename, event.new)
+    def on_upload(event):  # the widget lets go of the bytes when this returns; the read has its own copy
+        if event.new is None:
+            return
+        filename, content = upload.filename, event.new
+        doc = pn.state.curdoc
+        if doc is None or doc.session_context is None:  # outside a server: read here
+            state.add_upload(filename, content)
+            return
+        state.notice = f"Reading {state_module.short_repr(filename)}..."
+
+        def show(outcome):
+            state.notice = ""
+            state.accept_upload(outcome)
+
+        def read():  # in a thread: the read itself runs in a worker process, the event loop never waits for it
+            outcome = state.read_upload(filename, content)
+            try:
+                doc.add_next_tick_callback(partial(show, outcome))
+            except Exception:  # the session closed while the file was read: nothing to show
+                pass
+
+        threading.Thread(target=read, name="camsim-upload", daemon=True).start()
 
     def on_refused(event):
         if upload.refused:

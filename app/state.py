@@ -34,7 +34,7 @@ import camsim_core as cc
 from camsim_core.cache import Pipeline
 from camsim_core.errors import CamsimError, ParameterError
 from camsim_core.io.upload import UploadLimits
-from camsim_core.io.upload import load_upload as _engine_load_upload
+from camsim_core.io.isolated import load_upload_isolated
 from camsim_core.review import design as _design
 from camsim_core.review.design import (CAMERA_CHOICES, GAUSSIAN_DEFAULTS, ILLUMINANT_CHOICES, METRIC_CHOICES,
                                        MOSAIC_CHOICES, OPTICS_CHOICES, RENDER_CHOICES, camera_from_params,
@@ -211,8 +211,10 @@ def json_depth(text):
 
 
 def load_upload(filename, content, limits=None):
-    """A Scene from uploaded bytes (the engine's :func:`camsim_core.io.upload.load_upload`, within ``LIMITS``)."""
-    return _engine_load_upload(filename, content, limits or LIMITS.upload)
+    """A Scene from uploaded bytes, read in a bounded worker process (the engine's
+    :func:`camsim_core.io.isolated.load_upload_isolated`, within ``LIMITS``): a file that crashes, hangs or
+    bombs a reader costs only that read, never the server and its other sessions."""
+    return load_upload_isolated(filename, content, limits or LIMITS.upload)
 
 
 class ExplorerState(param.Parameterized):
@@ -533,18 +535,31 @@ class ExplorerState(param.Parameterized):
                        f"scale{clipped}. It maximises signal, not colour fidelity: dE can rise.")
 
     def add_upload(self, filename, content):
-        """Validate and select an uploaded scene; on failure set ``message`` and keep the current scene."""
+        """Validate and select an uploaded scene; on failure set ``message`` and keep the current scene.
+
+        Reads and selects in turn (a script, a test); the explorer reads in a thread with
+        :meth:`read_upload` and selects on its event loop with :meth:`accept_upload`.
+        """
+        return self.accept_upload(self.read_upload(filename, content))
+
+    @staticmethod
+    def read_upload(filename, content):
+        """``(scene, None)`` or ``(None, message)`` for an uploaded file: the read alone, safe in any thread."""
         name = str(filename)
         if any(ord(c) < 32 or ord(c) == 127 for c in name):  # a NUL makes every file call raise ValueError
-            self.message = f"Upload refused: the file name {short_repr(name)} holds a control character"
-            return False
+            return None, f"Upload refused: the file name {short_repr(name)} holds a control character"
         try:
-            scene = load_upload(filename, content)
+            return load_upload(filename, content), None
         except CamsimError as exc:
-            self.message = f"Upload refused: {exc}"
-            return False
+            return None, f"Upload refused: {exc}"
         except Exception as exc:  # never a server path or a traceback in the page
-            self.message = f"Upload refused: {Path(str(filename)).name}: could not be read ({type(exc).__name__})"
+            return None, f"Upload refused: {Path(name).name}: could not be read ({type(exc).__name__})"
+
+    def accept_upload(self, outcome):
+        """Select the scene of a :meth:`read_upload` outcome, or show its message; returns whether it was selected."""
+        scene, message = outcome
+        if scene is None:
+            self.message = message
             return False
         self.message = ""
         self.add_scene(f"upload:{scene.name}", scene)

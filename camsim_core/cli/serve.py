@@ -332,6 +332,10 @@ def run(args):
     origins = allowed_origins(args.address, args.port, args.allow_origin)
     idle_ms = int(args.session_idle * 1000)
     main.warm_up()
+    if not args.no_upload:  # uploads are read in worker processes forked from a server started now
+        from ..io.isolated import warm_up as start_upload_readers
+
+        start_upload_readers()
     _freeze_startup_objects()
     if not args.no_spare_page:
         from app import _spare_session
@@ -347,6 +351,9 @@ def run(args):
              check_unused_sessions_milliseconds=max(500, min(idle_ms, 10_000)))
     refuse_other_hosts(server._tornado, origins)  # before the server takes its first request
     server.start()
+    from app.loop_watch import watch_event_loop  # a line in the log for every stall of the event loop over 100 ms
+
+    watch_event_loop(server.io_loop.asyncio_loop)
     try:
         server.io_loop.start()
     except RuntimeError:  # as pn.serve: a loop already running
