@@ -187,12 +187,19 @@ class CameraImage:
 
 
 def subtract_black_level(image):
-    """The image without its pedestal: ``max(data - black_level, 0)``, ``black_level`` 0.
+    """The image without its pedestal: ``data - black_level`` (floating point, signed), ``black_level`` 0.
 
-    What a raw converter does first (dcraw, for example, subtracts the black
-    level and clips at zero before demosaicing): the result is what a camera
-    with no pedestal would have recorded, values that quantization clipped
-    at 0 included. An image without a pedestal is returned as it is.
+    Values below the pedestal stay negative: the noise around black is what
+    the sensor measured, and clipping it at 0 (as dcraw does before
+    demosaicing) would bias every dark pixel upwards (a dark frame with a
+    64 DN pedestal and 8 DN noise, demosaiced, had a mean of +3.1 DN instead
+    of 0) and shrink its noise. Processing (demosaicing, balancing, metrics,
+    SNR) keeps the signed values; only a display or a file format clips.
+    The ADC's own clip (a raw value of 0 or the full scale) stays where the
+    sensor put it. The result keeps ``extra["saturation"]``: the level
+    (after subtraction, per sensor class when the pedestal is) at which the
+    raw clipped, ``full_scale - black_level`` (``None`` when unquantized).
+    An image without a pedestal is returned as it is.
     """
     black = np.asarray(image.black_level, float)
     if not np.any(black):
@@ -206,8 +213,12 @@ def subtract_black_level(image):
             black = black if black.shape == data.shape else black.reshape(data.shape)
         elif data.ndim != 3 or data.shape[2] != black.size:
             raise ParameterError("black_level", f"{black.size} per-class values for an image of shape {data.shape}")
-    data = np.clip(data - black, 0.0, None)
-    return image.replace(data=data, black_level=0.0, history=image.history + ("subtract_black_level",))
+    data = data - black
+    extra = dict(image.extra)
+    if image.full_scale is not None and "saturation" not in extra:
+        level = image.full_scale - np.asarray(image.black_level, float)
+        extra["saturation"] = float(level) if level.ndim == 0 else tuple(float(v) for v in level)
+    return image.replace(data=data, black_level=0.0, extra=extra, history=image.history + ("subtract_black_level",))
 
 
 def image_from_scene(scene):

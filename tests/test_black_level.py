@@ -94,7 +94,7 @@ def test_raw_from_array_carries_the_black_level():
     flat = cs.raw_from_array(np.full((8, 8), 40, np.uint8), "GRBG", black_level=15)
     np.testing.assert_array_equal(cs.demosaic(flat).data, 25.0)
     dark = cs.raw_from_array(np.full((8, 8), 10, np.uint8), "GRBG", black_level=15)
-    np.testing.assert_array_equal(cs.demosaic(dark).data, 0.0)  # clipped at 0 like a raw converter
+    np.testing.assert_array_equal(cs.demosaic(dark).data, -5.0)  # signed: below the pedestal stays below 0
     for bad in (-1, "x", float("nan")):
         with pytest.raises(ParameterError, match="black_level"):
             cs.raw_from_array(np.zeros((2, 2)), "GRBG", black_level=bad)

@@ -22,7 +22,7 @@ from ..errors import ParameterError
 from ..image import subtract_black_level
 from ._masks import check_mosaiced
 
-__all__ = ["demosaic", "METHODS"]
+__all__ = ["demosaic", "METHODS", "saturation_level"]
 
 
 def _bilinear(image, **options):
@@ -81,6 +81,20 @@ def _check_size(image):
                                       "too small to demosaic (bring the camera closer, or use smaller pixels)")
 
 
+def saturation_level(image):
+    """The value (or one per sensor class) at which ``image``'s raw clipped, in the units of its data.
+
+    ``full_scale`` while the image still carries its pedestal, ``full_scale -
+    black_level`` once processing subtracted it (``extra["saturation"]``);
+    ``None`` for an unquantized image, which has no ADC to clip it.
+    """
+    if image.full_scale is None or not image.quantized:
+        return None
+    if not np.any(np.asarray(image.black_level, float)) and "saturation" in image.extra:
+        return image.extra["saturation"]
+    return image.full_scale
+
+
 def demosaic(image, method="bilinear", **options):
     """Demosaic a camera image.
 
@@ -88,8 +102,11 @@ def demosaic(image, method="bilinear", **options):
     ----------
     image : CameraImage
         Mosaiced (``image.mosaiced`` and a ``tile``), in digital units. Its
-        ``black_level`` (pedestal) is subtracted first, values clipped at 0,
-        as a raw converter does; the result has ``black_level`` 0.
+        ``black_level`` (pedestal) is subtracted first; the values stay
+        signed (floating point): the noise around black is kept, not
+        clipped at 0, so that a dark frame stays unbiased. The result has
+        ``black_level`` 0 and ``extra["saturation"]``, the level at which
+        the raw clipped after the subtraction (:func:`saturation_level`).
     method : str
         One of :data:`METHODS`.
     **options

@@ -2,7 +2,10 @@
 
 SNR = mean / standard deviation of a uniform region, in dB as 20 log10(SNR)
 (the ratio of amplitudes; ISO 15739 reports the same ratio). The pedestal
-(``black_level``) is subtracted first, as a raw converter does. A raw
+(``black_level``) is subtracted first, as a raw converter does, and the
+values stay signed: the noise around black is measured as the sensor gave
+it, never clipped at 0 (which would raise the mean and lower the noise of a
+dim field, and so its SNR). A raw
 mosaic is measured per sensor class on that class's own samples, before any
 demosaicing mixes neighbours (which would lower the noise); luminance then
 needs a full-colour image.
@@ -60,11 +63,14 @@ def region_snr(image, roi=None):
         clipped noise makes the SNR meaningless); ``"luminance"`` too for a
         full-colour image of more than one channel.
     """
+    from ..demosaicing import saturation_level
     from ..image import subtract_black_level
     from .sharpness import luminance_weights
 
     if hasattr(image, "black_level"):
         image = subtract_black_level(image)
+    # where the raw clipped, in the units of the (pedestal-free) data: one value, or one per sensor class
+    full = saturation_level(image) if hasattr(image, "full_scale") and hasattr(image, "quantized") else None
     data = np.asarray(getattr(image, "data", image), float)
     if data.ndim not in (2, 3):
         raise ParameterError("image", f"expected (H, W) or (H, W, K) data, got shape {data.shape}")
@@ -83,11 +89,13 @@ def region_snr(image, roi=None):
         if len(names) != d.shape[2]:
             names = tuple(str(i) for i in range(d.shape[2]))
         weights = luminance_weights(image) if d.shape[2] > 1 else None
-        return _colour_stats(d[sel], names, weights, getattr(image, "full_scale", None))
-    full = getattr(image, "full_scale", None)
+        if full is not None and np.ndim(full) and np.size(full) != d.shape[2]:
+            full = None
+        return _colour_stats(d[sel], names, weights, None if full is None else np.asarray(full, float))
     out = {}
-    for n, v in planes.items():
-        out[n] = _stats(np.asarray(v, float).ravel(), full)
+    for k, (n, v) in enumerate(planes.items()):
+        level = full[k] if full is not None and np.ndim(full) and k < np.size(full) else full
+        out[n] = _stats(np.asarray(v, float).ravel(), None if np.ndim(level) else level)
     return out
 
 
