@@ -2,24 +2,43 @@
 
 Each sub-command lives in its own module of this package and defines
 ``register(subparsers)``, which adds its parser and sets ``func`` to a
-function ``func(args) -> int``. Errors of camsim's own (bad files, bad
-parameters) print one clear line and exit with status 2, never a traceback.
+function ``func(args) -> int``. Every failure prints one line on stderr
+and exits with status 2, never a traceback: camsim's own errors (bad files,
+bad parameters: :class:`~camsim_core.errors.CamsimError`) as their message,
+argument errors as argparse's message without the usage block, and any
+other exception as its type and message (set ``CAMSIM_DEBUG=1`` to see its
+traceback instead). Warnings raised on the way (numpy's, Pillow's) are not
+printed when the command fails; when it succeeds each distinct one is one
+``warning:`` line on stderr.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import pkgutil
 import sys
+import warnings
 
 from ..errors import CamsimError
 
 __all__ = ["main", "build_parser"]
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """An ``ArgumentParser`` whose usage errors are one line on stderr (and status 2), not the usage block.
+
+    Sub-command parsers are of the same class (``add_subparsers`` makes them so).
+    """
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {_one_line(message)} (see {self.prog} --help)\n")
+
+
 def build_parser():
-    parser = argparse.ArgumentParser(prog="camsim", description="Digital camera simulation from hyperspectral scenes.")
+    """The ``camsim`` parser with every sub-command of this package."""
+    parser = OneLineParser(prog="camsim", description="Digital camera simulation from hyperspectral scenes.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
         if info.name.startswith("_"):
@@ -27,15 +46,43 @@ def build_parser():
         module = importlib.import_module(f"{__name__}.{info.name}")
         if hasattr(module, "register"):
             module.register(sub)
+    parser.command_names = tuple(sorted(sub.choices))
     return parser
 
 
 def main(argv=None):
+    """Run the ``camsim`` command line.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        0 on success, 2 for bad input (one line on stderr), 130 when
+        interrupted. Argument errors and ``--help`` raise ``SystemExit`` (2
+        and 0) as argparse does.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
+        print(f"camsim: error: a COMMAND is required ({', '.join(parser.command_names)})", file=sys.stderr)
         return 2
+    if args.command == "serve":  # a server runs for hours: its warnings are shown as they come, not kept
+        return _run(args)
+    with warnings.catch_warnings(record=True) as caught:  # the filters in force stay; shown warnings are kept
+        status = _run(args)
+    if status == 0:
+        for text in dict.fromkeys(f"{w.category.__name__}: {_one_line(w.message)}" for w in caught):
+            print(f"camsim {args.command}: warning: {text}", file=sys.stderr)
+    return status
+
+
+def _run(args):
+    """``args.func(args)`` with every failure turned into one line on stderr and its status."""
     try:
         import numpy as np
 
@@ -47,8 +94,11 @@ def main(argv=None):
     except KeyboardInterrupt:
         print(f"camsim {args.command}: interrupted", file=sys.stderr)
         return 130
-    except (OSError, UnicodeError, MemoryError, RecursionError, ValueError, TypeError, ArithmeticError) as exc:
-        # not one of camsim's own errors: still one line, never a traceback
+    except Exception as exc:
+        # not one of camsim's own errors (a disk full, a file that cannot be read, or a check camsim lacks):
+        # still one line, with the exception's type, never a traceback unless asked for
+        if os.environ.get("CAMSIM_DEBUG") == "1":
+            raise
         print(f"camsim {args.command}: error: {type(exc).__name__}: {_one_line(exc)}", file=sys.stderr)
         return 2
 

@@ -27,6 +27,25 @@ def register(subparsers):
     p.set_defaults(func=run)
 
 
+def _check_text_file(path, flag):
+    """Refuse ``path`` for ``flag`` unless it is a readable UTF-8 text file (the regions JSON, the reference CSV)."""
+    import codecs
+    from pathlib import Path
+
+    from ..errors import ParameterError
+
+    p = Path(path)
+    if not p.is_file():
+        raise ParameterError(flag, f"{path}: no such file" if not p.exists() else f"{path} is not a regular file")
+    try:
+        with p.open("rb") as f:  # the first MiB (a character cut at its end is not an error): enough to tell text from binary
+            codecs.getincrementaldecoder("utf-8")().decode(f.read(1 << 20), final=False)
+    except OSError as exc:
+        raise ParameterError(flag, f"{path}: cannot be read ({exc.strerror or exc})") from None
+    except UnicodeDecodeError as exc:
+        raise ParameterError(flag, f"{path}: not a UTF-8 text file (byte {exc.start}: {exc.reason})") from None
+
+
 def run(args):
     from pathlib import Path
 
@@ -35,6 +54,9 @@ def run(args):
     from . import check_output
 
     check_output(args.out, "--out", suffixes=(".npz",))
+    for flag, path in (("--mcc", args.mcc), ("--reference", args.reference)):
+        if path is not None:
+            _check_text_file(path, flag)
     if args.report:
         report = Path(args.report)
         if report.exists() and not report.is_dir():

@@ -13,10 +13,15 @@ standard error) and writes the three histograms as one PNG. See
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 
-__all__ = ["register", "run"]
+__all__ = ["register", "run", "MAX_F_STOP"]
+
+#: Highest f-number compared: the real image was taken at f/11; far beyond, the simulation is black and
+#: there is nothing to register.
+MAX_F_STOP = 1000.0
 
 
 def register(subparsers):
@@ -54,13 +59,28 @@ def run(args):
     from ..errors import ParameterError
     from ..metrics.real import CHAPTER_MEDIAN, compare_real, histogram_png, scale_explanation
 
+    from . import check_output
+
     out = Path(args.out)
     if out.suffix.lower() != ".png":
         raise ParameterError("--out", f"the histogram is written as PNG; give a .png path, got {out}")
+    check_output(out, "--out")  # a folder, or a missing one: refused now, not after the report is printed
     blocks = args.block or [16, 50]
     for b in blocks:
         if b < 1:
             raise ParameterError("--block", f"must be a positive number of pixels, got {b}")
+    # checked before the simulation runs (a second of work before a NaN or an f/1e308 would be refused)
+    from ..optics.diffraction import MIN_F_NUMBER
+
+    for flag, v in (("--distance", args.distance), ("--exposure", args.exposure)):
+        if not (math.isfinite(v) and v > 0):
+            raise ParameterError(flag, f"must be a positive finite number, got {v}")
+    if not (math.isfinite(args.f_stop) and MIN_F_NUMBER <= args.f_stop <= MAX_F_STOP):
+        raise ParameterError("--f-stop", f"must be an f-number from {MIN_F_NUMBER:g} to {MAX_F_STOP:g}, got {args.f_stop}")
+    if not 0 <= args.black_percentile <= 100:  # NaN fails too
+        raise ParameterError("--black-percentile", f"must be a percentile from 0 to 100, got {args.black_percentile}")
+    if args.seed < 0:
+        raise ParameterError("--seed", f"must be a whole number >= 0, got {args.seed}")
     r = compare_real(
         raw_path=args.raw, monitor=args.monitor, distance=args.distance, exposure=args.exposure,
         f_stop=args.f_stop, blocks=blocks, render=args.render, black_percentile=args.black_percentile,

@@ -17,10 +17,42 @@ from pathlib import Path
 
 from ..errors import ParameterError
 
-__all__ = ["register", "run"]
+__all__ = ["register", "run", "MAX_VALUES"]
 
 PITCHES_DEFAULT = (1.0, 1.2, 1.4, 1.75, 2.0, 2.4, 2.8, 3.45, 4.0, 4.8, 5.6)  # camsim_core.experiments.pixel_size.PITCHES_UM
 LUX_DEFAULT = (5.0, 20.0, 100.0, 1000.0, 10000.0)  # ... .LUX (not imported here: the CLI starts fast)
+
+
+#: Most values in one list of a sweep (``--alphas``, ``--sigmas``, ``--centers``, ``--pitches``, ``--lux``) and
+#: most ``--seeds``: a guard against a typo's hours of work or a billion-value ``START:STOP:COUNT``.
+MAX_VALUES = 1000
+
+
+def _values(text, name):
+    """The numbers of a list option (see :func:`~camsim_core.experiments.grid.parse_values`), at most :data:`MAX_VALUES`.
+
+    A ``START:STOP:COUNT`` whose count is beyond the limit (or infinite) is refused before any array is made.
+    """
+    from ..experiments import grid
+
+    parts = str(text).strip().split(":")
+    if len(parts) == 3:
+        try:
+            count = float(parts[2])
+        except ValueError:
+            count = 0.0  # not a number: parse_values says what is expected
+        if not count <= MAX_VALUES:  # NaN and infinity too
+            raise ParameterError(name, f"{text!r} asks for {parts[2]} values; at most {MAX_VALUES}")
+    values = grid.parse_values(text, name)
+    if len(values) > MAX_VALUES:
+        raise ParameterError(name, f"{len(values)} values given; at most {MAX_VALUES}")
+    return values
+
+
+def _seeds(args):
+    if not 1 <= args.seeds <= MAX_VALUES:
+        raise ParameterError("--seeds", f"must be a whole number from 1 to {MAX_VALUES}, got {args.seeds}")
+    return args.seeds
 
 
 def _distance(text):
@@ -115,13 +147,13 @@ def _out(args):
 
 
 def run_pixel_size(args):
-    from ..experiments import grid, pixel_size
+    from ..experiments import pixel_size
     from ..experiments.runner import run_tasks
 
     out = _out(args)
     t0 = time.perf_counter()
-    configs = pixel_size.configurations(grid.parse_values(args.pitches, "--pitches"), grid.parse_values(args.lux, "--lux"),
-                                        args.seeds, demosaic=args.demosaic)
+    configs = pixel_size.configurations(_values(args.pitches, "--pitches"), _values(args.lux, "--lux"),
+                                        _seeds(args), demosaic=args.demosaic)
     workers = _workers(args, len(configs))
     where = f"scheduler {args.scheduler}" if args.scheduler else (f"local Dask cluster of {workers} worker(s)" if workers else "this process")
     print(f"camsim experiment pixel-size: {len(configs)} tasks on {where}")
@@ -139,11 +171,12 @@ def run_pixel_size(args):
 
 
 def run(args):
-    from ..experiments import grid, mosaic, sensors
+    from ..experiments import mosaic, sensors
 
     if args.experiment == "pixel-size":
         return run_pixel_size(args)
-    sigmas = grid.parse_values(args.sigmas, "--sigmas")
+    sigmas = _values(args.sigmas, "--sigmas")
+    _seeds(args)
     distance = _distance(args.distance)
     if args.workers is not None and args.workers < 0:
         raise ParameterError("--workers", f"must be >= 0, got {args.workers}")
@@ -159,13 +192,13 @@ def run(args):
         raise ParameterError("--out", f"{out} exists and is not a folder")
     t0 = time.perf_counter()
     if args.experiment == "sensors":
-        alphas = grid.parse_values(args.alphas, "--alphas")
+        alphas = _values(args.alphas, "--alphas")
         # validation (and scene loading) happens here, before any worker starts
         configs = sensors.configurations(args.scenes, alphas, sigmas, args.seeds, distance=distance,
                                          monitor=args.monitor, mosaic=args.mosaic, viewing=viewing)
         module = sensors
     else:
-        centers = grid.parse_values(args.centers, "--centers")
+        centers = _values(args.centers, "--centers")
         configs = mosaic.configurations(args.scenes, sigmas, args.seeds, centers=centers, std_nm=args.std,
                                         distance=distance, monitor=args.monitor, demosaic=args.demosaic, viewing=viewing)
         module = mosaic

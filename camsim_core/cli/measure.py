@@ -9,7 +9,11 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["register", "run"]
+__all__ = ["register", "run", "MAX_LUMINANCE"]
+
+#: Highest luminance of ``--snr-vs-light``, cd/m^2: about the sun's disc (1.6e9); far beyond it the photon
+#: counts overflow the noise generator.
+MAX_LUMINANCE = 1e10
 
 
 def register(subparsers):
@@ -95,6 +99,9 @@ def _snr_curve(args):
         levels = [float(v) for v in args.snr_vs_light.split(",") if v.strip()]
     except ValueError:
         raise ParameterError("--snr-vs-light", f"expected luminances like 10,30,100, got {args.snr_vs_light!r}") from None
+    if not levels or not all(0 < v <= MAX_LUMINANCE for v in levels):  # NaN fails too
+        raise ParameterError("--snr-vs-light", f"expected luminances from above 0 to {MAX_LUMINANCE:g} cd/m^2, "
+                                               f"got {args.snr_vs_light!r}")
     cam = load_camera(args.camera)
     changes = {k: getattr(args, k) for k in ("noise_sigma", "bits", "black_level", "seed", "f_stop", "exposure")
                if getattr(args, k) is not None}

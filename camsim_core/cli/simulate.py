@@ -11,13 +11,20 @@ __all__ = ["register", "run"]
 
 
 def _size(text):
+    """``--size ROWSxCOLS`` as ``(rows, cols)``: whole numbers within the camera limits
+    (:func:`~camsim_core.camera.camera.check_camera_size`)."""
+    from ..camera.camera import check_camera_size
+
     try:
         rows, cols = (int(v) for v in str(text).lower().split("x"))
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected ROWSxCOLS (e.g. 3000x4000), got {text!r}") from None
     if rows < 1 or cols < 1:
         raise argparse.ArgumentTypeError(f"rows and columns must be >= 1, got {text!r}")
-    return rows, cols
+    try:
+        return check_camera_size(rows, cols, "--size")
+    except ParameterError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("--size: ")) from None
 
 
 def register(subparsers):
