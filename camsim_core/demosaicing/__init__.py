@@ -22,7 +22,7 @@ from ..errors import ParameterError
 from ..image import subtract_black_level
 from ._masks import check_mosaiced
 
-__all__ = ["demosaic", "METHODS", "saturation_level"]
+__all__ = ["demosaic", "METHODS", "reach", "clipped_samples", "saturation_level"]
 
 
 def _bilinear(image, **options):
@@ -81,18 +81,91 @@ def _check_size(image):
                                       "too small to demosaic (bring the camera closer, or use smaller pixels)")
 
 
+def reach(method, tile, **options):
+    """(rows, columns): how far from a raw sample the estimates of ``method`` may change with it.
+
+    Bilinear interpolates each class from its own samples with the tent of
+    the tile's period (``n - 1`` rows, ``m - 1`` columns); Freeman adds its
+    median of differences (``size // 2``); Malvar's filters are 5 x 5; the
+    Bayesian estimate reads the samples of its window (``window // 2``; its
+    prior, estimated over the whole image, is not counted); Menon's
+    directional filters, decision and refining step reach 8 pixels at most
+    (measured: a single changed sample of a random Bayer mosaic moves
+    estimates up to 8 pixels away, never further).
+    """
+    n, m = np.shape(tile)[:2]
+    key = str(method).lower()
+    if key == "bilinear":
+        return n - 1, m - 1
+    if key == "freeman":
+        r = int(options.get("size", 5)) // 2
+        return n - 1 + r, m - 1 + r
+    if key in ("bayesian", "bayesian-original"):
+        window = options.get("window")
+        if window is None:
+            window = 5 if key == "bayesian-original" or options.get("mode") == "original" else 2 * max(n, m) + 3
+        return int(window) // 2, int(window) // 2
+    if key == "malvar2004":
+        return 2, 2
+    return 8, 8
+
+
 def saturation_level(image):
     """The value (or one per sensor class) at which ``image``'s raw clipped, in the units of its data.
 
     ``full_scale`` while the image still carries its pedestal, ``full_scale -
     black_level`` once processing subtracted it (``extra["saturation"]``);
-    ``None`` for an unquantized image, which has no ADC to clip it.
+    ``None`` for an image without a bit depth, which no ADC clipped.
     """
-    if image.full_scale is None or not image.quantized:
+    if image.full_scale is None:
         return None
     if not np.any(np.asarray(image.black_level, float)) and "saturation" in image.extra:
         return image.extra["saturation"]
     return image.full_scale
+
+
+def clipped_samples(image):
+    """(H, W) boolean: the pixels at which the raw reached its full scale (any tier); ``None`` when none did.
+
+    A clipped value is a lower bound of what the pixel received, not a
+    measurement: rendering shows such pixels as the display's white
+    (:func:`camsim_core.render`) instead of as the darker colour their
+    clipped values would give once the exposure is divided out.
+    """
+    level = saturation_level(image)
+    if level is None:
+        return None
+    data = np.asarray(image.data)
+    level = np.asarray(level, float)
+    if level.ndim and image.mosaiced and image.tile is not None:
+        from ..simulation.mosaic import tile_index_map
+
+        level = level[tile_index_map(image.tile, data.shape[:2])]
+    elif level.ndim and data.ndim == 3 and data.shape[2] != level.size:
+        return None
+    # quantized values: a half step below the full scale is the full scale. The maximum first: an image that
+    # did not clip (the usual case) costs one reduction and no mask
+    half = 0.5 if image.quantized else 0.0
+    if data.size == 0 or not np.nanmax(data - level if level.ndim else data) >= (-half if level.ndim else float(level) - half):
+        return None
+    hit = data >= level - half
+    if hit.ndim == 3:
+        hit = hit.any(axis=2)
+    return hit if hit.any() else None
+
+
+def _clipped_after(image, key, options):
+    """The pixels whose estimate may hold a clipped raw sample: :func:`clipped_samples` widened by the method's
+    :func:`reach` (``None`` when nothing clipped). Read-only."""
+    hit = clipped_samples(image)
+    if hit is None:
+        return None
+    from scipy.ndimage import maximum_filter
+
+    ry, rx = reach(key, image.tile, **options)
+    out = maximum_filter(hit.view(np.uint8), size=(2 * ry + 1, 2 * rx + 1), mode="constant").view(bool)
+    out.flags.writeable = False
+    return out
 
 
 def demosaic(image, method="bilinear", **options):
@@ -117,14 +190,22 @@ def demosaic(image, method="bilinear", **options):
     -------
     CameraImage
         ``space="sensor"``, data (H, W, K), ``mosaiced=False``, tile kept.
+        ``extra["clipped"]``: (H, W) boolean, the pixels whose estimates
+        may hold a raw sample at full scale (the clipped samples widened
+        by the method's :func:`reach`), or ``None`` when none clipped; it
+        holds for these data only (``extra["clipped_of"]`` is the data
+        array it describes).
     """
     key = str(method).lower()
     if key not in METHODS:
         raise ParameterError("method", f"unknown demosaicing method {method!r}; valid: {', '.join(METHODS)}")
     check_mosaiced(image, key)
     _check_size(image)
+    clipped = _clipped_after(image, key, options)
     image = subtract_black_level(image)
     out = METHODS[key](image, **options)
     extra = dict(image.extra)
     extra["demosaic"] = key
+    # the mask describes these data: an image whose data are replaced (image.replace(data=...)) carries none
+    extra["clipped"], extra["clipped_of"] = clipped, out
     return image.then(f"demosaic:{key}", data=out, mosaiced=False, space="sensor", extra=extra)

@@ -23,7 +23,7 @@ from .._chunks import map_pixels
 from ..errors import ParameterError
 from ..monitor import Monitor, load_monitor
 from ._linear import apply_matrix, cones, per_band
-from .baseline import _sensor_planes, baseline_matrix, display_scale
+from .baseline import _sensor_planes, baseline_matrix, clipped_pixels, display_scale
 from .ideal import ideal_camera, ideal_image
 from .illuminant import balance_matrix, matched_luminance, resolve_illuminant, surface_basis
 from .xyz import monitor_xyz_matrix, to_xyz, white_xyz
@@ -84,9 +84,12 @@ def render(image, monitor, method="baseline", illuminant=None, dimensions=None, 
     CameraImage
         ``space="monitor"``, data (H, W, 3) integer frame-buffer values
         0..255 (float array), ``bits=8``, ``quantized=True``. ``extra``
-        holds ``display_scale``, ``scale_source`` and, for the illuminant
-        method, ``illuminant`` (the Spectrum used). The linear settings are
-        made and gamma corrected by chunks of pixels and not kept (a
+        holds ``display_scale``, ``scale_source``, ``clipped_fraction``
+        (the share of pixels shown as clipped) and, for the illuminant
+        method, ``illuminant`` (the Spectrum used). Pixels whose raw
+        clipped (:func:`~camsim_core.rendering.baseline.clipped_pixels`)
+        are the display's white: more light never renders a pixel darker.
+        The linear settings are made and gamma corrected by chunks of pixels and not kept (a
         12-megapixel image's would be 137 MiB more);
         ``monitor.frame_buffer_to_linear(data)`` gives them back to 8-bit steps.
     """
@@ -132,10 +135,20 @@ def render(image, monitor, method="baseline", illuminant=None, dimensions=None, 
         # settings, display scale, clipping and gamma in one compiled pass (Monitor._settings_to_frame_buffer)
         mon._settings_to_frame_buffer(c, m, s, out=out)
 
+    # settings, display scale, clipping and gamma by chunks of pixels: no full-size float temporary
+    fb = map_pixels(frame_buffer, data, into=(3, data.dtype))
+    clipped = clipped_pixels(image)
+    if clipped is not None:
+        # a clipped raw value is a lower bound of the light, not a measurement: divided by the gain it would
+        # render darker the more light there is (a fully clipped frame rendered at a mean of 2 of 255 at 32 x
+        # the chapter's exposure); it is shown as the display's white, which no lower exposure outshines
+        fb[clipped] = float(2 ** mon.bits - 1)
+    extra.pop("clipped_of", None)  # the demosaiced data: not kept alive by the rendered image
+    extra["clipped"] = clipped
+    extra["clipped_fraction"] = 0.0 if clipped is None else float(np.mean(clipped))
     return image.then(
         f"render:{key}",
-        # settings, display scale, clipping and gamma by chunks of pixels: no full-size float temporary
-        data=map_pixels(frame_buffer, data, into=(3, data.dtype)),
+        data=fb,
         space="monitor",
         bits=mon.bits,
         quantized=True,

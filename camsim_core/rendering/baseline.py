@@ -25,6 +25,18 @@ camera; these are divided by one number ``s`` fixed by the *scene*:
   of the image's largest linear setting (image-dependent; say so when used).
 
 Linear settings ``w / s`` are clipped to [0, 1] before gamma correction.
+
+Clipped raw values
+------------------
+Dividing by the gain makes an unclipped pixel render the same at every
+exposure. A raw value at the ADC's full scale is only a lower bound of
+the light: divided by a gain that grows with the exposure, it would render
+darker the more light there is (on the chapter's setting, 32 x its exposure
+clipped every value and rendered at a mean of 2 of 255, a dark purple). So
+the pixels whose raw clipped (:func:`clipped_pixels`: the clipped samples,
+widened by the demosaicing method's reach) are shown as the display's
+white, the brightest colour it has: more light never renders a pixel
+darker, and the rendered luminance never falls as the exposure grows.
 """
 
 from __future__ import annotations
@@ -35,7 +47,7 @@ from ..errors import ParameterError
 from ..image import subtract_black_level
 from ._linear import apply_matrix, cones, per_band, solve_matrix
 
-__all__ = ["baseline_matrix", "display_scale", "to_frame_buffer", "check_renderable"]
+__all__ = ["baseline_matrix", "display_scale", "to_frame_buffer", "check_renderable", "clipped_pixels"]
 
 
 def check_renderable(image):
@@ -64,6 +76,27 @@ def _sensor_planes(image):
     if not image.gain > 0:
         raise ParameterError("gain", f"must be > 0, got {image.gain}")
     return data
+
+
+def clipped_pixels(image):
+    """(H, W) boolean: the pixels of a camera image whose raw clipped at the ADC's full scale, or ``None``.
+
+    A demosaiced image carries them (``extra["clipped"]``, set by
+    :func:`camsim_core.demosaic`: the clipped samples widened by the
+    method's reach), for the data it was made with only: an image whose
+    data were replaced since (``image.replace(data=...)``) has none known.
+    A full-colour image straight from the camera is measured here, a pixel
+    counting as clipped when any of its sensors is at full scale
+    (:func:`camsim_core.demosaicing.clipped_samples`). An unquantized image
+    has no ADC to clip it.
+    """
+    if "clipped" in image.extra or "demosaic" in image.extra:
+        return image.extra.get("clipped") if image.extra.get("clipped_of") is image.data else None
+    if image.mosaiced:
+        return None
+    from ..demosaicing import clipped_samples
+
+    return clipped_samples(image)
 
 
 def baseline_matrix(sensitivities, primaries, what="camera-monitor matrix T_C B_M"):
