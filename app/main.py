@@ -606,16 +606,20 @@ def create_app(scene=None):
     _go_background(state)
     state.recompute()  # in the background in a server: the page shows at once, marked as computing
     if pn.state.location is not None:
+        chart_refused = []  # why the link's chart was refused, quoted with the link's refusal
+
         def on_error(values):
             shown = ", ".join(f"{k} {state_module.short_repr(v, 40)}" for k, v in values.items())
-            _tell(state, f"The link held parameters that were refused: {shown[:300]}")
+            why = f" ({chart_refused[0][:300]})" if chart_refused else ""
+            _tell(state, f"The link held parameters that were refused: {shown[:300]}{why}")
 
         too_long = _long_url_values(pn.state.location.search)
         if too_long:
             _tell(state, f"The link's values for {', '.join(too_long)} are longer than "
                          f"{state_module.LIMITS.max_text} characters and were ignored")
         else:
-            _offer_linked_chart(state, pn.state.location.search)
+            if not _offer_linked_chart(state, pn.state.location.search):
+                chart_refused.append(state.message)
             _sync_address(state, URL_PARAMETERS + COMPARE_PARAMETERS, on_error)
     views = {"state": state}
     views["results"] = results = ResultsView(state)
@@ -764,12 +768,15 @@ def _sync_address(state, names, on_error):
 
 
 def _offer_linked_chart(state, search):
-    """A link to a chart with options ("scene=slanted-edge:angle=10"): make that chart before the link is applied."""
+    """A link to a chart with options ("scene=slanted-edge:angle=10"): make that chart before the link is applied.
+
+    Returns False when the chart was refused (``state.message`` says why)."""
     from urllib.parse import parse_qsl
 
     scenes = [v for k, v in parse_qsl(str(search or "").lstrip("?")) if k == "scene"]
     if scenes and ":" in scenes[-1] and scenes[-1] not in state.param.scene.objects:
-        state.offer_chart(scenes[-1])
+        return state.offer_chart(scenes[-1])
+    return True
 
 
 def _long_url_values(search):
