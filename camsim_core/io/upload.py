@@ -166,7 +166,7 @@ def _load_single(tmp, name, suffix, content, limits):
     path.write_bytes(content)
     from ..scene.photo import read_photo
 
-    return read_photo(path, max_values=limits.max_scene_values)
+    return read_photo(path, max_values=limits.max_scene_values, shown=name)
 
 
 def _declared_members(data):
@@ -302,7 +302,7 @@ def _load_other_zip(tmp, name, buf, members, limits):
     if hdrs:
         from ..scene.envi import read_envi
 
-        return read_envi(root / hdrs[0], max_values=limits.max_scene_values)
+        return read_envi(root / hdrs[0], max_values=limits.max_scene_values, shown=f"{name}:{hdrs[0]}")
     from ..scene.cave import read_band_folder
 
-    return read_band_folder(root / pngs[0].parent, max_values=limits.max_scene_values)
+    return read_band_folder(root / pngs[0].parent, max_values=limits.max_scene_values, shown=f"{name}:{pngs[0].parent}")

@@ -82,7 +82,7 @@ def _load_scene(key, negative):
     if path.is_dir():
         from .cave import read_band_folder
 
-        return read_band_folder(path, negative=negative)
+        return read_band_folder(path, negative=negative, shown=key)
     suffix = path.suffix.lower()
     if suffix == ".simg":
         return read_simg(path, negative=negative, shown=path)
@@ -91,7 +91,7 @@ def _load_scene(key, negative):
     if suffix == ".hdr":
         from .envi import read_envi
 
-        return read_envi(path, negative=negative)
+        return read_envi(path, negative=negative, shown=key)
     if suffix == ".mat":
         from .matlab import read_mat
 
@@ -99,7 +99,7 @@ def _load_scene(key, negative):
     if suffix in PHOTO_SUFFIXES:
         from .photo import read_photo
 
-        return read_photo(path)
+        return read_photo(path, shown=key)
     raise FileFormatError(
         path, "unknown scene format: expected a .Simg header with its planes, an .npz, an ENVI .hdr, a MATLAB .mat, "
         f"a photo ({', '.join(PHOTO_SUFFIXES)}) or a folder of band PNGs")
