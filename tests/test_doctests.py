@@ -1,0 +1,17 @@
+"""The runnable examples in the engine's docstrings run (modules listed here; more join as they gain examples)."""
+
+import doctest
+import importlib
+
+import pytest
+
+MODULES = ["camsim_core.io.guard", "camsim_core.io.matv5", "camsim_core.io.hdf5", "camsim_core.io.isolated",
+           "camsim_core._parallel", "camsim_core.scene.matlab"]
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_docstring_examples_run(name):
+    module = importlib.import_module(name)
+    result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted > 0, f"{name} has no examples"
+    assert result.failed == 0
