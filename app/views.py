@@ -482,6 +482,19 @@ def _rgb_hover():
     return CustomJSHover(code=_RGB_HOVER_JS)
 
 
+def _exposure_flags(res):
+    """The warnings a score of ``res`` must carry (a black, empty or clipped frame: :attr:`camsim_core.cache.Result.exposure`)."""
+    exposure = getattr(res, "exposure", None)
+    return tuple(exposure.flags) if exposure is not None else ()
+
+
+def _mean_y(xyz):
+    """Mean luminance Y (cd/m^2) of the rendered image's XYZ on the monitor; ``None`` without one."""
+    if xyz is None:
+        return None
+    return round(float(np.mean(np.asarray(getattr(xyz, "data", xyz))[..., 1], dtype=np.float64)), 4)
+
+
 # -- the results: raw, demosaiced, rendered, ideal, dE ---------------------
 class ResultsView:
     """Image views sharing zoom and pan, the dE histogram and the statistics line.
@@ -761,6 +774,8 @@ class ResultsView:
             view = self._memo("de_view", de, self._de_view)
             self._whole("de", self._de_coloured(de, view, *self._de_scale(view)), dict(value=view["image"]))
         self._memo("exposure", res.raw, exposure_warnings)
+        self._memo("flags", res.raw, lambda raw: _exposure_flags(res))
+        self._memo("rendered_y", res.xyz, _mean_y)
         self._memo("level", res.raw, mean_level)
         self._memo("raw_hash", res.raw, digest)
         self._memo("rendered_hash", res.rendered, digest)
@@ -867,12 +882,15 @@ class ResultsView:
         steps = [n.removeprefix("stage:") for n, _ in res.ran]
         engine_s = getattr(res, "elapsed", 0.0) or res.seconds  # wall time (the ideal side may run beside)
         head = "<strong>Computing the new result...</strong> (the images below are the previous one) · " if busy else ""
+        # a black, empty or clipped frame: its warning stands beside the dE, as large (the score is not a good one)
+        flags = self._memo("flags", res.raw, lambda raw: _exposure_flags(res))
+        flagged = "".join(f" <strong class='camsim-flag' style='color:#c00000'>⚠ {html.escape(f)}</strong>" for f in flags)
         if mean is None:
-            self.stats.object = f"<p>{head}dE not available</p>"
+            self.stats.object = f"<p>{head}dE not available{flagged}</p>"
         else:
             view = (f" · viewing {html.escape(str(self.state.viewing))}, {res.samples_per_degree:.4g} samples/deg"
                     if label == "S-CIELAB" and getattr(res, "samples_per_degree", None) else "")
-            self.stats.object = (f"<p>{head}<strong>{label}</strong> mean dE <strong>{mean:.2f}</strong> · median "
+            self.stats.object = (f"<p>{head}<strong>{label}</strong> mean dE <strong>{mean:.2f}</strong>{flagged} · median "
                                  f"<strong>{med:.2f}</strong>{view} · engine {1000 * engine_s:.0f} ms "
                                  f"({', '.join(steps) or 'nothing re-run'})</p>")
         clipped, dark = self._memo("exposure", res.raw, exposure_warnings)
@@ -901,6 +919,8 @@ class ResultsView:
             "ran": [[name, round(t * 1000, 2)] for name, t in res.ran],
             "engine_ms": round(engine_s * 1000, 2),
             "clipped": round(clipped, 4), "dark": round(dark, 4),
+            "flags": list(flags),
+            "rendered_mean_y": self._memo("rendered_y", res.xyz, _mean_y),
             "message": self.state.message,
         }
         self.status.object = "<pre>" + html.escape(json.dumps(self.status_data, separators=(",", ":"))) + "</pre>"

@@ -147,6 +147,20 @@ class Result:
         """Total time of the steps that ran."""
         return float(sum(t for _, t in self.ran))
 
+    @property
+    def exposure(self):
+        """How the raw frame is exposed (:func:`camsim_core.metrics.exposure.exposure_measures`: the shares of
+        pixels clipped and at the black level, the mean signal) and its ``flags``, the warnings a score of it
+        must carry (a black, empty or clipped frame); ``None`` without a raw image. Measured once per raw."""
+        from .metrics.exposure import exposure_measures
+
+        if self.raw is None:
+            return None
+        held = self.__dict__.get("_exposure")
+        if held is None or held[0] is not self.raw:
+            held = self.__dict__["_exposure"] = (self.raw, exposure_measures(self.raw))
+        return held[1]
+
 
 def fingerprint(value):
     """A hashable, value-based summary of a camera field (arrays by content)."""

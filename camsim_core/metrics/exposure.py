@@ -1,0 +1,131 @@
+"""How a raw frame is exposed, and the warnings a score made from it must carry.
+
+An error against the ideal image scores what the camera recorded. A black
+frame (nothing above the pedestal: exposure 1e-4 s on the chapter's scene)
+or a clipped one (values at the ADC's full scale, only a lower bound of the
+light) recorded little or nothing of the scene, whatever its dE says: with
+a reference quantized like the camera, a black frame scored a mean dE of
+0.00 against a reference as black as itself. :func:`exposure_measures`
+measures the frame; :meth:`ExposureMeasures.flags` says, in words, why its
+score is not a good one; the explorer shows them beside the dE it headlines
+(:attr:`camsim_core.cache.Result.exposure`).
+
+The measures, per pixel of the raw (a mosaic's pixel is one sample; a
+full-colour pixel is clipped when any of its sensors is, at the black level
+when all are):
+
+* ``clipped``: the share of pixels at the full scale (``2**bits - 1``, a
+  half step below counting when quantized); 0 for a raw without a bit
+  depth, which no ADC clipped;
+* ``black``: the share at or below the black level (the pedestal, a half
+  step above counting when quantized): no light recorded;
+* ``signal``: the mean value above the pedestal as a fraction of the range
+  above it (255 without a bit depth, the engine's display convention).
+
+Flags: a *black frame* when at least half the pixels are at the black
+level; *under-exposed* when the mean signal is below 2 % of the range;
+*clipped* when at least 1 % of the pixels are at full scale (*fully
+clipped* from 99 %); an *empty frame* has no pixels.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["ExposureMeasures", "exposure_measures", "exposure_flags", "CLIPPED_SHARE", "BLACK_SHARE", "DIM_SIGNAL"]
+
+#: Share of pixels at full scale from which a frame is flagged clipped.
+CLIPPED_SHARE = 0.01
+#: Share of pixels at the black level from which a frame is flagged black.
+BLACK_SHARE = 0.5
+#: Mean signal (fraction of the range above the pedestal) below which a frame is flagged under-exposed.
+DIM_SIGNAL = 0.02
+
+
+@dataclass(frozen=True)
+class ExposureMeasures:
+    """The exposure of one raw frame (see the module docstring). Shares are fractions 0..1."""
+
+    pixels: int
+    clipped: float
+    black: float
+    signal: float
+
+    @property
+    def flags(self):
+        """Why a score of this frame is not a good one: a tuple of short sentences (empty for a fair frame)."""
+        out = []
+        if self.pixels == 0:
+            return ("empty frame: no pixels",)
+        if self.black >= BLACK_SHARE:
+            out.append(f"black frame: {_percent(self.black)} of pixels at the black level")
+        elif self.signal < DIM_SIGNAL:
+            out.append(f"under-exposed: mean signal {_percent(self.signal)} of full scale")
+        if self.clipped >= 0.99:
+            out.append(f"fully clipped: {_percent(self.clipped)} of pixels at full scale")
+        elif self.clipped >= CLIPPED_SHARE:
+            out.append(f"clipped: {_percent(self.clipped)} of pixels at full scale")
+        return tuple(out)
+
+    def as_dict(self):
+        return {"pixels": self.pixels, "clipped": self.clipped, "black": self.black, "signal": self.signal,
+                "flags": list(self.flags)}
+
+
+def _percent(share):
+    """A share as a percentage, never rounded to 0 % or 100 % unless it is."""
+    p = 100.0 * share
+    if 0 < p < 0.1:
+        return "< 0.1 %"
+    if 99.9 < p < 100:
+        return "> 99.9 %"
+    return f"{p:.0f} %" if p >= 10 else f"{p:.1f} %"
+
+
+def _per_pixel(level, image, data):
+    """The pedestal or full scale as an array that broadcasts against ``data`` (one per class, by pixel)."""
+    level = np.asarray(level, float)
+    if level.ndim == 0:
+        return level
+    if image.mosaiced and image.tile is not None:
+        from ..simulation.mosaic import tile_index_map
+
+        per = level[tile_index_map(image.tile, data.shape[:2])]
+        return per if per.shape == data.shape else per.reshape(data.shape)
+    return level  # one per sensor, along the last axis of a full-colour image
+
+
+def exposure_measures(raw):
+    """The :class:`ExposureMeasures` of a raw camera image (digital units, its pedestal still in its data)."""
+    data = np.asarray(raw.data)
+    if data.dtype not in (np.float32, np.float64):
+        data = data.astype(np.float64)
+    full_colour = not raw.mosaiced and data.ndim == 3
+    pixels = int(np.prod(data.shape[:2])) if data.ndim >= 2 else int(data.size)
+    if pixels == 0 or data.size == 0:
+        return ExposureMeasures(0, 0.0, 0.0, 0.0)
+    black = _per_pixel(raw.black_level, raw, data)
+    half = 0.5 if raw.quantized else 0.0
+    at_black = data <= black + half
+    full = raw.full_scale
+    if full is not None:
+        clipped = data >= full - half
+    else:
+        clipped = np.zeros(data.shape, bool)
+    if full_colour:
+        at_black, clipped = at_black.all(axis=2), clipped.any(axis=2)
+    elif data.ndim == 3:  # tiers of a mosaic: one pixel, several samples
+        at_black, clipped = at_black.all(axis=2), clipped.any(axis=2)
+    top = _per_pixel((full if full is not None else 255.0) - np.asarray(raw.black_level, float), raw, data)
+    if np.ndim(black) == 0 and np.ndim(top) == 0:  # one pedestal: no full-size temporary
+        signal = (float(np.mean(data, dtype=np.float64)) - float(black)) / max(float(top), 1e-12)
+    else:
+        signal = float(np.mean((data - black) / np.maximum(top, 1e-12)))
+    return ExposureMeasures(pixels, float(np.mean(clipped)), float(np.mean(at_black)), signal)
+
+
+def exposure_flags(raw):
+    """The flags of :func:`exposure_measures` of ``raw`` (a tuple of short sentences)."""
+    return exposure_measures(raw).flags
