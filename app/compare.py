@@ -44,6 +44,7 @@ from camsim_core.review.difference import ab_difference
 from camsim_core.review.report import DESIGN_COLOURS, quality_cell, report_html, shared_scale
 from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
 
+from .safe_text import PlainText, html_text, md_text
 from .views import once
 
 hv.Store.set_current_backend("bokeh")
@@ -202,9 +203,9 @@ class CompareView:
         self.progress = pn.indicators.Progress(name="designs", value=0, max=1, visible=False, width=300,
                                                css_classes=["camsim-compare-progress"])
         self.table = pn.pane.HTML("", css_classes=["camsim-compare-table"], sizing_mode="stretch_width")
-        self.status = pn.pane.Str("", css_classes=["camsim-compare-status"], sizing_mode="stretch_width",
-                                  styles={"font-size": "10px", "white-space": "pre-wrap", "word-break": "break-all"},
-                                  stylesheets=["pre { white-space: pre-wrap; word-break: break-all; }"])
+        self.status = PlainText("", css_classes=["camsim-compare-status"], sizing_mode="stretch_width",
+                                styles={"font-size": "10px", "white-space": "pre-wrap", "word-break": "break-all"},
+                                stylesheets=["pre { white-space: pre-wrap; word-break: break-all; }"])
         self.a_select = w.Select(name="A", options=[], css_classes=["w-ab-a"], width=180)
         self.b_select = w.Select(name="B", options=[], css_classes=["w-ab-b"], width=180)
         self.a_select.param.watch(lambda e: self.update_ab(), "value")
@@ -307,7 +308,7 @@ class CompareView:
         if old not in names:
             return False
         if not new or len(new) > 60 or (new in names and new != old):
-            self.message.object = f"**Refused:** a pinned design needs a unique, non-empty name (got {new!r})."
+            self.message.object = f"**Refused:** a pinned design needs a unique, non-empty name (got {md_text(repr(new))})."
             return False
         self.state.pinned = [dict(p, name=new) if p["name"] == old else p for p in self.state.pinned]
         self.rename_input.value = ""
@@ -353,11 +354,11 @@ class CompareView:
         try:
             scene = self.state.scene_object()
         except CamsimError as exc:
-            self.message.object = f"**Refused:** {exc}"
+            self.message.object = f"**Refused:** {md_text(exc)}"
             return
         self._computing = True
         self.progress.max, self.progress.value, self.progress.visible = len(missing), 0, True
-        self.message.object = f"Computing {len(missing)} pinned design(s) on {self.state.scene}..."
+        self.message.object = f"Computing {len(missing)} pinned design(s) on {md_text(self.state.scene)}..."
         if self._server_doc() is None:
             self._compute(missing, scene, key, generation)
         else:
@@ -386,7 +387,7 @@ class CompareView:
         if done == total:
             self._computing = False
             self.progress.visible = False
-            self.message.object = "; ".join(f"**{n}** refused: {m}" for n, m in self.errors.items())
+            self.message.object = "; ".join(f"**{md_text(n)}** refused: {md_text(m)}" for n, m in self.errors.items())
         self._safely(self.update)
 
     def _safely(self, fn):
@@ -397,7 +398,7 @@ class CompareView:
             import logging
 
             logging.getLogger("camsim.compare").exception("compare tab update failed")
-            self.message.object = f"**Display failed:** {type(exc).__name__}: {exc}"
+            self.message.object = f"**Display failed:** {type(exc).__name__}: {md_text(exc)}"
 
     def _server_doc(self):
         doc = self._doc
@@ -504,8 +505,9 @@ class CompareView:
         if not results:
             return "<p>No design yet.</p>"
         differ = differing_parameters([r.params for r in results], skip=_SHARED)
-        head = "".join(f"<th>{r.name}</th>" for r in results)
-        rows = [f"<tr><th>{k}</th>" + "".join(f"<td>{r.params.get(k)}</td>" for r in results) + "</tr>" for k in differ]
+        head = "".join(f"<th>{html_text(r.name)}</th>" for r in results)
+        rows = [f"<tr><th>{html_text(k)}</th>" + "".join(f"<td>{html_text(r.params.get(k))}</td>" for r in results) + "</tr>"
+                for k in differ]
         for metric, key in (("dE", "cielab"), ("S-CIELAB dE", "scielab")):
             for stat, label in (("mean", "mean"), ("median", "median"), ("p95", "95th pct")):
                 cells = "".join(
@@ -546,7 +548,7 @@ class CompareView:
         try:
             ab = ab_difference(a, b, metric)
         except CamsimError as exc:
-            self.ab_text.object = f"**A/B not available:** {exc}"
+            self.ab_text.object = f"**A/B not available:** {md_text(exc)}"
             return
         self.ab = (a.name, b.name, ab)
         tie = a.error_map(metric) == b.error_map(metric)
@@ -554,9 +556,10 @@ class CompareView:
         top = shared_scale([ab["delta_e"]])
         self.ab_pipe.send((ab["delta_e"], _WIN_COLOURS[idx], top))
         m = ab["measures"]
-        self.ab_text.object = (f"dE*ab between **{a.name}** and **{b.name}**: mean {m['mean']:.2f}, median "
-                               f"{m['median']:.2f}. **{a.name}** is closer to the ideal image ({metric}) on "
-                               f"{100 * ab['a_wins_fraction']:.1f} % of the pixels, **{b.name}** on "
+        a_name, b_name = md_text(a.name), md_text(b.name)
+        self.ab_text.object = (f"dE\\*ab between **{a_name}** and **{b_name}**: mean {m['mean']:.2f}, median "
+                               f"{m['median']:.2f}. **{a_name}** is closer to the ideal image ({metric}) on "
+                               f"{100 * ab['a_wins_fraction']:.1f} % of the pixels, **{b_name}** on "
                                f"{100 * ab['b_wins_fraction']:.1f} %.")
 
     # -- the sweep -----------------------------------------------------------------
@@ -565,7 +568,7 @@ class CompareView:
         try:
             sweep = check_sweep({"parameter": parameter, "values": values})
         except CamsimError as exc:
-            self.sweep_message.object = f"**Refused:** {exc}"
+            self.sweep_message.object = f"**Refused:** {md_text(exc)}"
             return False
         if sweep == self.state.sweep:
             self.start_sweep()
@@ -605,12 +608,12 @@ class CompareView:
             metrics = ("cielab",) if self.state.metric == "CIELAB" else ("cielab", "scielab")  # what the plot shows
             points = iter_sweep(designs, sweep["parameter"], sweep["values"], scene=scene, cancel=cancel, metrics=metrics)
         except CamsimError as exc:
-            self.sweep_message.object = f"**Refused:** {exc}"
+            self.sweep_message.object = f"**Refused:** {md_text(exc)}"
             return
         self.points = []
         self.sweep_total = len(designs) * len(sweep["values"])
         self.sweep_progress.max, self.sweep_progress.value = self.sweep_total, 0
-        self.sweep_message.object = f"Sweeping {sweep['parameter']} over {len(sweep['values'])} values for {len(designs)} design(s)..."
+        self.sweep_message.object = f"Sweeping {md_text(sweep['parameter'])} over {len(sweep['values'])} values for {len(designs)} design(s)..."
         if self._server_doc() is None:
             for p in points:
                 self._add_point(cancel, p)
@@ -625,7 +628,8 @@ class CompareView:
                     break
                 self._schedule(partial(self._add_point, cancel, p))
         except Exception as exc:  # never a dead page
-            self._schedule(partial(setattr, self.sweep_message, "object", f"**Failed:** {type(exc).__name__}: {exc}"))
+            self._schedule(partial(setattr, self.sweep_message, "object",
+                                   f"**Failed:** {type(exc).__name__}: {md_text(exc)}"))
 
     def _add_point(self, cancel, point):
         if cancel is not self._sweep_cancel:
@@ -637,7 +641,7 @@ class CompareView:
         errors = [p for p in self.points if p.error]
         if len(self.points) == self.sweep_total:
             self.sweep_message.object = (f"Done: {len(self.points)} points. Click a point to load its configuration."
-                                         + (f" {len(errors)} refused: {errors[0].error}" if errors else ""))
+                                         + (f" {len(errors)} refused: {md_text(errors[0].error)}" if errors else ""))
         self._status()
 
     def show_sweep(self):
@@ -683,8 +687,8 @@ class CompareView:
         """Load a sweep point's configuration into the live design."""
         values = {k: v for k, v in _design_only(point.params).items() if getattr(self.state, k) != v}
         self.state.param.update(**values)
-        self.sweep_message.object = (f"Loaded **{point.name}** at {self.state.sweep['parameter']} = {point.value:g} "
-                                     "into the live design.")
+        self.sweep_message.object = (f"Loaded **{md_text(point.name)}** at {md_text(self.state.sweep['parameter'])} = "
+                                     f"{point.value:g} into the live design.")
 
     # -- status and report -------------------------------------------------------
     def _status(self, results=None, top=None):

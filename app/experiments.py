@@ -15,6 +15,7 @@ import panel as pn
 
 from camsim_core.errors import CamsimError
 
+from .safe_text import md_text
 from .views import once
 
 hv.Store.set_current_backend("bokeh")
@@ -67,7 +68,7 @@ class ExperimentsView:
             alphas = self._parse(self.alphas.value, "alphas")
             sigmas = self._parse(self.sigmas.value, "sigmas")
         except CamsimError as exc:
-            self.message.object = f"**Refused:** {exc}"
+            self.message.object = f"**Refused:** {md_text(exc)}"
             return
         if len(alphas) * len(sigmas) > 30:
             self.message.object = "**Refused:** at most 30 configurations here; use `camsim experiment sensors` for more."
@@ -83,9 +84,9 @@ class ExperimentsView:
             records = self.run(alphas=alphas, sigmas=sigmas, seeds=1, workers=None)
             outcome = (records, None)
         except CamsimError as exc:
-            outcome = (None, f"**Refused:** {exc}")
+            outcome = (None, f"**Refused:** {md_text(exc)}")
         except Exception as exc:  # never a dead page
-            outcome = (None, f"**Failed:** {type(exc).__name__}: {exc}")
+            outcome = (None, f"**Failed:** {type(exc).__name__}: {md_text(exc)}")
         if doc is not None and doc.session_context is not None:
             doc.add_next_tick_callback(once(self._show, *outcome))  # records not kept by the callback once shown
         else:

@@ -33,6 +33,7 @@ from . import state as state_module
 from .compare import compare_tab
 from .physical import SensorControls
 from .quality import QualityView
+from .safe_text import md_text
 from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, ExplorerState, Runner
 from .upload import BoundedUpload
 from .views import CameraView, ResultsView, SceneView, Text, _after, once, when_page_ready
@@ -623,15 +624,16 @@ def create_app(scene=None):
             _sync_address(state, URL_PARAMETERS + COMPARE_PARAMETERS, on_error)
     views = {"state": state}
     views["results"] = results = ResultsView(state)
-    alert = pn.pane.Alert(state.message, alert_type="danger", visible=bool(state.message),
+    # the messages quote what users typed, linked or uploaded: shown as text (``md_text``), never as markup
+    alert = pn.pane.Alert(md_text(state.message), alert_type="danger", visible=bool(state.message),
                           css_classes=["camsim-alert"], sizing_mode="stretch_width")
-    notice = pn.pane.Alert(state.notice, alert_type="warning", visible=bool(state.notice),
+    notice = pn.pane.Alert(md_text(state.notice), alert_type="warning", visible=bool(state.notice),
                            css_classes=["camsim-notice"], sizing_mode="stretch_width")
 
     def on_message(event):
-        alert.object = state.message
+        alert.object = md_text(state.message)
         alert.visible = bool(state.message)
-        notice.object = state.notice
+        notice.object = md_text(state.notice)
         notice.visible = bool(state.notice)
 
     state.param.watch(on_message, ["message", "notice"])

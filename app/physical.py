@@ -21,6 +21,8 @@ from camsim_core.errors import CamsimError
 from camsim_core.optics import cutoff_frequency, diffraction_mtf
 from camsim_core.simulation.electrons import photon_transfer, system_gain
 
+from .safe_text import md_text
+
 __all__ = ["PhysicalView", "SensorControls", "parameter_table", "mtf_curves"]
 
 WAVELENGTHS_NM = (450.0, 550.0, 650.0)
@@ -103,7 +105,7 @@ class PhysicalView:
         try:
             ptc = photon_transfer(cam, np.geomspace(cam.exposure / 20, cam.exposure * 2, 10), size=48)
         except CamsimError as exc:
-            self.note.object = f"Photon transfer unavailable: {exc}"
+            self.note.object = f"Photon transfer unavailable: {md_text(exc)}"
             return
         curves = [hv.Curve((ptc["mean"][:, k], ptc["variance"][:, k]), "Mean (DN, black subtracted)", "Temporal variance (DN²)",
                            label=name).opts(color={"R": "#d03030", "G": "#30a030", "B": "#3050d0"}.get(name, "black"))

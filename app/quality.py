@@ -18,6 +18,8 @@ from holoviews import streams
 from camsim_core.errors import CamsimError
 from camsim_core.metrics.report import default_measures, measure_images
 
+from .safe_text import md_text
+
 __all__ = ["QualityView", "measures_for"]
 
 _HINT = "Pick the **slanted-edge** chart for the MTF, **uniform** for the SNR, **macbeth** for the patch dE."
@@ -89,7 +91,7 @@ class QualityView:
                                          ideal=res.ideal, monitor=self.state.monitor)
             problem = ""
         except CamsimError as exc:
-            self.report, problem = {}, f"**Not measured**: {exc}"
+            self.report, problem = {}, f"**Not measured**: {md_text(exc)}"
         parts = [problem] if problem else []
         if "mtf" in self.report:
             self.mtf_pipe.send(self.report["mtf"])  # new curves into the same plot

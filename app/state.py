@@ -279,6 +279,7 @@ class ExplorerState(param.Parameterized):
         self._requests = itertools.count(1)
         self._latest = 0
         self._accepted = None  # parameters of the newest job accepted (computed or being computed)
+        self._refused_while = None  # the newest job's id when a change was last refused (see ``_apply``)
         #: ``prepare(result)`` callables run after each computation, in the computing thread (views put their
         #: display arrays there, so the event loop only hands them to the browser)
         self.preparers = []
@@ -440,7 +441,8 @@ class ExplorerState(param.Parameterized):
             self._accepted = self.shown
             self.computing = False
             return
-        self.message = ""
+        if job["id"] != self._refused_while:  # a refusal made while this job computed stays in sight
+            self.message = ""
         res.params = job["params"]
         self.shown = dict(job["params"])
         self.param.update(result=res, computing=False)  # one batch: views redraw once
@@ -451,6 +453,7 @@ class ExplorerState(param.Parameterized):
         back = {k: v for k, v in target.items() if getattr(self, k) != v}
         changed = ", ".join(f"{k} {short_repr(getattr(self, k))} -> {short_repr(v)}" for k, v in back.items())
         self.message = f"Refused: {reason}" + (f" (put back: {changed})" if changed else "")
+        self._refused_while = self._latest
         if back:
             self.defer(lambda: self._restore(back))
 

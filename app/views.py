@@ -32,6 +32,7 @@ from camsim_core.screen import block_size, to_screen
 from camsim_core.simulation import tile_index_map
 
 from . import state as state_module
+from .safe_text import html_text, md_text
 from .state import exposure_warnings, mean_level
 
 
@@ -435,7 +436,8 @@ class Text:
     with each change, which makes Bokeh re-walk the whole document's model
     graph on the server. The model carries the text HTML-escaped, as Panel's
     own panes send it (the browser decodes it); scripts and TeX are off.
-    Use it where a pane would go (``__panel__``).
+    The text is HTML: a part that users wrote (a name, a value) goes through
+    :func:`~app.safe_text.html_text`. Use it where a pane would go (``__panel__``).
     """
 
     def __init__(self, text, css, margin=(2, 5), styles=None, stylesheets=()):
@@ -793,7 +795,7 @@ class ResultsView:
         skipped = "demosaic" in getattr(res, "skipped", {})
         self.labels["demosaiced"].object = ("Demosaicing not needed (full-colour image): the sensor planes"
                                             if skipped else f"<span title='{_LINEAR_NOTE}'>Demosaiced "
-                                                           f"({self.state.shown.get('demosaic_method', '')})</span>")
+                                                           f"({html_text(self.state.shown.get('demosaic_method', ''))})</span>")
         shape = raw.data.shape[:2]
         if self._changed("demosaiced", res.demosaiced):
             self._show("demosaiced", self._memo("demosaiced_view", res.demosaiced, planes_rgba)
@@ -1067,7 +1069,8 @@ class SceneView:
             self.y_range.update(start=0, end=h)
             self.rgb_source.data = dict(image=[rgba32(scene_srgb(scene))], x=[0], y=[0], dw=[w], dh=[h])
             d = scene.describe() if hasattr(scene, "describe") else {}
-            rows = [f"| {key} | {v} |" for key, v in d.items() if key not in ("comments",)]
+            # names, units and notices come from the scene's file: shown as text
+            rows = [f"| {md_text(key)} | {md_text(v)} |" for key, v in d.items() if key not in ("comments",)]
             self.meta.object = "| | |\n|---|---|\n" + "\n".join(rows)
             self.reset_spectra()
         plane = np.asarray(scene.data[:, :, k], np.float32)
@@ -1174,7 +1177,7 @@ class CameraView:
         if res is None:
             return
         cam = res.camera
-        self.info.object = (f"**{cam.name}** · {len(cam.sensors)} sensors · image {res.raw.data.shape[0]} x "
+        self.info.object = (f"**{md_text(cam.name)}** · {len(cam.sensors)} sensors · image {res.raw.data.shape[0]} x "
                             f"{res.raw.data.shape[1]} px at {cam.distance} m · {cam.exposure:g} s f/{cam.f_stop:g}")
         key = (fingerprint(cam.sensors), fingerprint(cam.mosaic))
         if key == self._key:
@@ -1185,7 +1188,7 @@ class CameraView:
         names = list(cam.sensors.names)
         self.curve_source.data = dict(xs=[wls] * len(names), ys=[np.asarray(v, float) for v in cam.sensors.values],
                                       color=[_hex(c) for c in colors], label=names)
-        self.title.object = f"Sensors: {cam.sensors.name or cam.name}"
+        self.title.object = f"Sensors: {html_text(cam.sensors.name or cam.name)}"
         t = None if cam.mosaic is None else np.asarray(cam.mosaic)
         if t is None:
             self.tile_label.object = "No mosaic: every pixel has every sensor"

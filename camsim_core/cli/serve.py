@@ -342,13 +342,16 @@ def run(args):
 
         if _spare_session.install():
             _spare_session.prepare_at_start(f"{public_host(args.address)}:{args.port}")
+    from app.csp import ContentSecurityPolicy  # the pages' Content-Security-Policy header (app/csp.py)
+
     print(f"camsim explorer on http://{public_host(args.address)}:{args.port}/ (Ctrl-C to stop)", flush=True)
     server = pn.serve(main.create_app, port=args.port, address=args.address, show=args.show, start=False,
              websocket_origin=[o for o in origins if not o.startswith("[")],  # Bokeh parses no IPv6 address
              title="camsim explorer", verbose=False,
              websocket_max_message_size=WEBSOCKET_MAX_MESSAGE_BYTES,
              unused_session_lifetime_milliseconds=idle_ms,
-             check_unused_sessions_milliseconds=max(500, min(idle_ms, 10_000)))
+             check_unused_sessions_milliseconds=max(500, min(idle_ms, 10_000)),
+             transforms=[ContentSecurityPolicy])
     refuse_other_hosts(server._tornado, origins)  # before the server takes its first request
     server.start()
     from app.loop_watch import watch_event_loop  # a line in the log for every stall of the event loop over 100 ms
