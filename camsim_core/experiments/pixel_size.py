@@ -26,7 +26,16 @@ The camera (everything else fixed)
   - QE: the phone preset's R, G, B curves at every pitch;
   - read noise 1.7 e- (the read-out circuit's, not the pixel's),
     dark current 5 e-/s/um^2 x p^2, DSNU 1 e-, PRNU 1 %;
-  - 10-bit ADC, the full well at full scale, RGGB Bayer tile.
+  - 10-bit ADC, the full well at full scale, RGGB Bayer tile;
+  - a black level (pedestal) of 16 DN, raised at a high analogue gain to
+    4 x the dark noise in DN (read noise, DSNU and the dark current's shot
+    noise, times the system gain), as a camera's black-level calibration
+    does at each gain and as EMVA 1288 asks of a measurement: the ADC
+    never clips the noise around black (at 5 lux and 64 x gain a 1 um
+    pixel's read noise alone is 51 DN; under a 16 DN pedestal 21 % of the
+    grey field's green pixels were clipped at 0 and its SNR read -0.45 dB
+    for the -5 dB of the EMVA 1288 model). Processing subtracts the
+    pedestal and keeps the signed values.
 
 * **Exposure**: the time that puts the scene's white at 80 % of the full
   well, at most 1/30 s (a hand-held video frame). Because both the well and
@@ -35,9 +44,9 @@ The camera (everything else fixed)
   their smaller wells' shot-noise SNR; in dim light the exposure is capped,
   the small pixels collect few electrons and read noise and shot noise
   dominate. There the camera raises its analogue gain (ISO) so that the
-  white still reaches 80 % of the ADC's range (at most 64 x), as a camera's
-  auto-exposure does, so that the 10-bit quantization does not add to the
-  noise.
+  white still reaches 80 % of the ADC's range above the pedestal (at most
+  64 x), as a camera's auto-exposure does, so that the 10-bit quantization
+  does not add to the noise (:func:`operating_point`).
 * **Light levels**: the illuminance on the scene, lux (D65); a perfect
   white reflector then has a luminance of lux / pi cd/m^2.
 
@@ -83,6 +92,7 @@ __all__ = [
     "LUX",
     "SENSOR_MM",
     "camera",
+    "operating_point",
     "configurations",
     "evaluate",
     "run",
@@ -106,8 +116,11 @@ PATCH_UM, SCENE_STEP_UM, COMPARE_STEP_UM = 192.0, 0.5, 1.0
 VIEW_DEG = 40.0
 WELL_PER_UM2, READ_NOISE, DARK_PER_UM2, DSNU, PRNU, TRENCH_UM, BITS = 2200.0, 1.7, 5.0, 1.0, 0.01, 0.2, 10
 MAX_EXPOSURE_S, WHITE_FILL, MAX_GAIN = 1 / 30, 0.8, 64.0
+#: The pedestal (DN): at least BLACK_LEVEL, and at least PEDESTAL_SIGMAS x the dark noise in DN at the gain used.
+BLACK_LEVEL, PEDESTAL_SIGMAS = 16.0, 4.0
 
-_RECORD_COLUMNS = ("pitch_um", "lux", "seed", "noise_seed", "pixels", "exposure_s", "analog_gain", "white_electrons", "full_well",
+_RECORD_COLUMNS = ("pitch_um", "lux", "seed", "noise_seed", "pixels", "exposure_s", "analog_gain", "black_level_dn",
+                   "white_electrons", "full_well",
                    "fill_factor", "saturated", "error", "snr_db", "mtf50_cyc_per_mm", "seconds")
 
 
@@ -169,7 +182,7 @@ def camera(pitch_um, lux=1000.0, seed=0):
         dark_current=DARK_PER_UM2 * p * p,
         dsnu=DSNU,
         prnu=PRNU,
-        black_level=16.0,
+        black_level=BLACK_LEVEL,
         seed=seed,
         # the optics stage by itself: its spectral planes at the sensor are blurred once and kept for every
         # light level and seed (the stages after it are run on them)
@@ -310,6 +323,41 @@ def exposure_for(cam, lux):
     return min(MAX_EXPOSURE_S, WHITE_FILL * cam.full_well / e_per_s), e_per_s
 
 
+def pedestal(cam, gain):
+    """The black level (DN) at analogue ``gain``: 4 x the dark noise in DN, at least 16 DN, whole DN.
+
+    The dark noise is the read noise, the DSNU and the dark current's shot
+    noise (electrons rms) times the system gain: below the pedestal the ADC
+    would clip it at 0 and bias a dim field's mean and noise.
+    """
+    from ..simulation.electrons import system_gain
+
+    dark_e = np.sqrt(cam.read_noise**2 + cam.dsnu**2 + cam.dark_current * cam.exposure)
+    return float(max(BLACK_LEVEL, np.ceil(PEDESTAL_SIGMAS * dark_e * system_gain(cam.replace(analog_gain=gain)))))
+
+
+def operating_point(pitch_um, lux, seed=0):
+    """The sweep's camera at ``pitch_um`` as it takes the picture at ``lux``: exposure, analogue gain, pedestal.
+
+    The exposure puts the perfect white at 80 % of the full well (at most
+    1/30 s, :func:`exposure_for`); in dim light the analogue gain lifts the
+    white to 80 % of the ADC's range above the pedestal (1 to 64 x), and
+    the pedestal holds 4 x the dark noise at that gain (:func:`pedestal`; the
+    gain is found with the pedestal of the gain that ignores it, so that
+    neither the white nor the noise around black clips). Returns ``(camera,
+    white electrons)``.
+    """
+    cam = camera(pitch_um, lux, seed)
+    exposure, e_per_s = exposure_for(cam, lux)
+    cam = cam.replace(exposure=exposure)
+    white_e = min(e_per_s * exposure, cam.full_well)
+    full = 2**BITS - 1
+    gain = float(np.clip(WHITE_FILL * cam.full_well / white_e, 1.0, MAX_GAIN))
+    black = pedestal(cam, gain)
+    gain = float(np.clip(WHITE_FILL * cam.full_well * (full - black) / full / white_e, 1.0, MAX_GAIN))
+    return cam.replace(analog_gain=gain, black_level=black), white_e
+
+
 def _to_grid(xyz, pitch_um, n_grid):
     """Bilinear interpolation of a camera image (pitch_um per pixel, centred) onto the comparison grid."""
     from scipy.ndimage import map_coordinates
@@ -371,12 +419,9 @@ def evaluate(config):
     from ..simulation import run_stages
 
     t0 = time.perf_counter()
-    cam = camera(config.pitch_um, config.lux, config.noise_seed)
-    exposure, e_per_s = exposure_for(cam, config.lux)
-    white_e = min(e_per_s * exposure, cam.full_well)
-    # ISO: in dim light an analogue gain lifts the white to 80 % of the ADC range (at most MAX_GAIN x)
-    gain = float(np.clip(WHITE_FILL * cam.full_well / white_e, 1.0, MAX_GAIN))
-    cam = cam.replace(exposure=exposure, analog_gain=gain)
+    # ISO: in dim light an analogue gain lifts the white to 80 % of the ADC range, the pedestal the dark noise
+    cam, white_e = operating_point(config.pitch_um, config.lux, config.noise_seed)
+    exposure, gain = cam.exposure, cam.analog_gain
     blurred = _blurred_reflectance_image()
     light = blurred.replace(data=blurred.data * config.lux)  # the optics are linear in the light level
     raw = run_stages(cam, light, [s for s in cam.architecture if s.__name__ != "optics"])
@@ -394,7 +439,7 @@ def evaluate(config):
     error = float(np.mean(scielab(shown, ref, spd, white, method="CIE 1976"), dtype=np.float64))
     rec = asdict(config)
     rec.update(noise_seed=config.noise_seed, pixels=int(raw.data.shape[0]), exposure_s=exposure, analog_gain=gain,
-               white_electrons=white_e, full_well=cam.full_well, fill_factor=cam.fill_factor,
+               black_level_dn=cam.black_level, white_electrons=white_e, full_well=cam.full_well, fill_factor=cam.fill_factor,
                saturated=float(np.mean(raw.data >= 2**BITS - 1)), error=error, snr_db=grey_snr(cam, config.lux),
                mtf50_cyc_per_mm=sharpness(config.pitch_um, config.demosaic), seconds=time.perf_counter() - t0)
     return rec
