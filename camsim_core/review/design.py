@@ -43,6 +43,31 @@ def _scene_names():
     return tuple(SCENE_NAMES)
 
 
+def _known_scene(value, label):
+    """Whether ``value`` names a shipped scene, a chart with valid options, or an existing file.
+
+    A chart's option names and size are checked here (a ParameterError names
+    them), so a sweep or a pinned design on "slanted-edge:angle=10" is
+    accepted and one on "slanted-edge:colour=red" or a chart too large is
+    refused before anything runs.
+    """
+    from ..scene.charts import CHART_NAMES, MAX_CHART_VALUES, chart_shape
+
+    low = value.lower()
+    if low in _scene_names():
+        return True
+    if ":" in low and low.split(":", 1)[0] in CHART_NAMES:
+        try:  # the options' names and the chart's size, allocating nothing; each value is checked as it is made
+            h, w, n = chart_shape(value)
+        except ParameterError as exc:
+            raise ParameterError(label, str(exc)) from None
+        if h * w * n > MAX_CHART_VALUES:
+            raise ParameterError(label, f"the chart {value[:80]!r} would hold {h * w * n} values, more than the "
+                                        f"{MAX_CHART_VALUES} a chart may have")
+        return True
+    return Path(value).is_file()
+
+
 def _camera_names():
     from ..camera import CAMERA_NAMES
 
@@ -227,9 +252,10 @@ def check_params(values, where="design"):
             if value not in spec:
                 raise ParameterError(label, f"expected one of {', '.join(spec)}, got {value!r}")
         elif kind == "scene":
-            if not isinstance(value, str) or (value.lower() not in _scene_names() and not Path(value).is_file()):
+            if not isinstance(value, str) or not _known_scene(value, label):
                 raise ParameterError(label, f"unknown scene {value!r}: expected a shipped scene "
-                                            f"({', '.join(_scene_names())}) or the path of a .Simg / .npz file")
+                                            f"({', '.join(_scene_names())}), a chart with options "
+                                            "('slanted-edge:angle=10') or the path of a scene file")
         elif kind == "text":
             if not isinstance(value, str) or len(value) > MAX_TEXT:
                 raise ParameterError(label, f"expected text of at most {MAX_TEXT} characters, got {str(value)[:40]!r}")
