@@ -70,8 +70,17 @@ def _check_scene(s):
 
 
 def _check_camera(c):
+    from camsim_core.camera.camera import ANGULAR_RESOLUTION_RANGE, MAX_CAMERA_PIXELS, MAX_CAMERA_SIDE
+
     v = c.sensors.values
-    assert np.all(np.isfinite(v)) and c.height >= 1 and c.width >= 1
+    assert np.all(np.isfinite(v)) and v.min() >= 0 and np.all(v.max(axis=1) > 0)
+    assert np.all(np.diff(c.sensors.wavelengths) > 0)
+    assert 1 <= c.height <= MAX_CAMERA_SIDE and 1 <= c.width <= MAX_CAMERA_SIDE
+    assert c.height * c.width <= MAX_CAMERA_PIXELS
+    lo, hi = ANGULAR_RESOLUTION_RANGE
+    assert all(lo <= a <= hi for a in np.ravel(c.angular_resolution))
+    if c.bits is not None:
+        assert 1 <= c.bits <= 32
     if c.mosaic is not None:
         assert np.issubdtype(np.asarray(c.mosaic).dtype, np.integer)
         assert np.asarray(c.mosaic).min() >= 0 and np.asarray(c.mosaic).max() < v.shape[0]
@@ -79,11 +88,17 @@ def _check_camera(c):
 
 def _check_monitor(m):
     assert np.all(np.isfinite(m.primaries)) and np.all(np.isfinite(m.gamma_table))
+    assert m.primaries.min() >= 0 and m.gamma_table.min() >= 0
     assert m.gamma_input.size >= 2 and np.all(m.gamma_table[-1] > 0)
+    assert np.all(np.diff(m.gamma_input) > 0)
+    ambient = getattr(m, "ambient", None)
+    if ambient is not None:
+        assert np.all(np.isfinite(np.asarray(ambient, float))) and np.min(ambient) >= 0
 
 
 def _check_sensors(s):
-    assert np.all(np.isfinite(s.values)) and np.all(np.diff(s.wavelengths) > 0)
+    assert np.all(np.isfinite(s.values)) and s.values.min() >= 0 and np.all(s.values.max(axis=1) > 0)
+    assert np.all(np.diff(s.wavelengths) > 0) and s.wavelengths.min() > 0
 
 
 def _read_dat(path):
