@@ -12,6 +12,8 @@ from camsim_core.scene import Scene
 H_C = 6.62607015e-34 * 299792458.0
 WLS = np.array([450.0, 550.0, 650.0])
 FOCAL_MM, DIST = 50.0, 1.05  # m = 0.05 / (1.05 - 0.05) = 0.05 exactly
+#: The working f-number N (1 + m) over the nominal N at that focus distance (the blur's, like the irradiance's).
+WORKING = 1.0 + FOCAL_MM * 1e-3 / (DIST - FOCAL_MM * 1e-3)
 
 
 def airy_mtf(v):
@@ -57,7 +59,7 @@ def test_point_spread_mtf_equals_the_analytic_diffraction_mtf(k, wavelength):
     psf = point_psf(512, pitch, n_f)[:, :, k]
     otf = np.abs(np.fft.rfft2(psf)) / psf.sum()
     f = np.fft.rfftfreq(psf.shape[1], d=pitch * 1e3)  # cycles/mm along x
-    v = f * wavelength * 1e-6 * n_f
+    v = f * wavelength * 1e-6 * n_f * WORKING
     keep = v <= 0.8
     measured, expected = otf[0, keep], airy_mtf(v[keep])
     assert np.max(np.abs(measured - expected)) < 0.02
@@ -66,13 +68,13 @@ def test_point_spread_mtf_equals_the_analytic_diffraction_mtf(k, wavelength):
 
 
 def test_first_dark_ring_of_the_airy_pattern_at_1_22_lambda_n():
-    """The radial profile of the PSF has its first minimum at 1.22 lambda N (an independent check of scale)."""
+    """The radial profile of the PSF has its first minimum at 1.22 lambda N (1 + m) (an independent check of scale)."""
     pitch, n_f = 0.25e-6, 8.0
     psf = point_psf(256, pitch, n_f)[:, :, 1]  # 550 nm
     row = psf[128, 128:]
     r = np.arange(row.size) * pitch
     first_min = r[np.argmax(np.diff(row) > 0)]  # first place the profile turns up again
-    assert first_min == pytest.approx(1.22 * 550e-9 * n_f, abs=pitch)
+    assert first_min == pytest.approx(1.22 * 550e-9 * n_f * WORKING, abs=pitch)
 
 
 def test_point_energy_in_the_frame_is_the_airy_encircled_energy():
@@ -221,7 +223,7 @@ def test_slanted_edge_mtf_of_the_blur_is_the_diffraction_mtf(k, wavelength):
     data = np.repeat((0.2 * left + 0.8 * (1 - left))[:, :, None], 3, axis=2)
     out = optics(lens_camera(n_f), image_from_scene(scene_sampled_at(pitch, data, WLS))).data[:, :, k]
     f, m = slanted_edge_mtf(out[16:-16, 16:-16], max_frequency=0.5)  # cycles per sample
-    v = f / (pitch * 1e3) * wavelength * 1e-6 * n_f
+    v = f / (pitch * 1e3) * wavelength * 1e-6 * n_f * WORKING
     keep = v <= 0.8
     np.testing.assert_allclose(m[keep] / np.sinc(f[keep]), airy_mtf(v[keep]), atol=0.02)
 

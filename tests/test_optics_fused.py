@@ -146,6 +146,6 @@ def test_slanted_edge_mtf_through_the_fused_stage_is_the_diffraction_mtf(wavelen
     cam = cs.Camera(sensors=sensor, focal_length=focal, distance=dist, f_stop=n_f, bits=None, optics="diffraction")
     out = lens_sensor_responses(cam, image_from_scene(scene)).data[:, :, 0]
     f, m = slanted_edge_mtf(out[16:-16, 16:-16], max_frequency=0.5)  # cycles per sample
-    v = f / (pitch * 1e3) * wavelength * 1e-6 * n_f
+    v = f / (pitch * 1e3) * wavelength * 1e-6 * n_f * (1 + focal * 1e-3 / (dist - focal * 1e-3))  # N (1 + m)
     keep = v <= 0.8
     np.testing.assert_allclose(m[keep] / np.sinc(f[keep]), airy_mtf(v[keep]), atol=0.02)

@@ -7,7 +7,13 @@ ADC bits, lens), with its ``source`` and what was ``derived`` or
 quantal sensitivities (QE curves), the electron-level sensor
 (``noise_model="photon"``, EMVA 1288 fields), ``optics="diffraction"``
 with cos^4 relative illumination, and the angular resolution that its
-pitch and focal length give (pitch / focal length radians per pixel).
+pitch and focal length give at the camera's distance: a pixel of pitch p
+images an object patch p / m, seen from the lens at d under
+atan(p / (f (1 + m))) radians, m = f / (d - f) the thin lens's
+magnification at the focus distance (:func:`angular_resolution_for`;
+pitch / f at infinity, half that angle at unit magnification). The
+optics stage's diffraction blur uses the working f-number N (1 + m) at the
+same distance (:func:`camsim_core.optics.stage.working_f_number`).
 """
 
 from __future__ import annotations
@@ -92,9 +98,38 @@ def read_sensor_sheet(path):
     return sheet
 
 
-def angular_resolution_for(pitch_m, focal_length_mm):
-    """Pixels per degree of a pixel pitch behind a lens: 1 / degrees(atan(pitch / f))."""
-    return 1.0 / np.degrees(np.arctan(float(pitch_m) / (float(focal_length_mm) * 1e-3)))
+def angular_resolution_for(pitch_m, focal_length_mm, distance=None):
+    """Pixels per degree of a pixel pitch behind a lens focused at ``distance`` m (None: at infinity).
+
+    1 / degrees(atan(pitch / (f (1 + m)))), m = f / (d - f): the sensor sits
+    at s' = f (1 + m) behind the lens, so a pixel sees the object patch
+    pitch / m, which subtends pitch / (f (1 + m)) radians from d (pitch / f at
+    infinity). With it, the optics stage's sample pitch at the sensor
+    (:func:`camsim_core.optics.irradiance.sample_pitch`) is the pixel pitch at any distance.
+    """
+    f = float(focal_length_mm) * 1e-3
+    m = 0.0
+    if distance is not None:
+        from ..optics.irradiance import magnification
+
+        m = magnification(focal_length_mm, distance)
+    return 1.0 / np.degrees(np.arctan(float(pitch_m) / (f * (1.0 + m))))
+
+
+def _angular_resolution(camera):
+    """(x, y) pixels per degree of the camera's pixel pitch and focal length at its distance."""
+    return (angular_resolution_for(camera.pixel_size[1], camera.focal_length, camera.distance),
+            angular_resolution_for(camera.pixel_size[0], camera.focal_length, camera.distance))
+
+
+def _follows_lens(camera):
+    """Whether the camera's angular resolution is that of its pitch and focal length (at infinity or at its
+    distance), rather than set by hand: then it follows them when they or the distance change."""
+    try:
+        ours = [_angular_resolution(camera), _angular_resolution(camera.replace(distance=None))]
+    except ParameterError:  # focused inside the focal length: no image, and no angle of a pixel to follow
+        return False
+    return any(np.allclose(camera.angular_resolution, phi, rtol=1e-9, atol=0.0) for phi in ours)
 
 
 def qe_sensors(peaks, centers, sigmas, name=""):
@@ -143,7 +178,12 @@ def physical_camera(name_or_path, **changes):
         )
     except ValueError as exc:
         raise FileFormatError(path, str(exc)) from None
-    return cam.replace(**changes) if changes else cam
+    if not changes:
+        return cam
+    cam = cam.replace(**changes)
+    if "angular_resolution" not in changes:  # the pitch, focal length and distance given: the angle of a pixel follows
+        cam = cam.replace(angular_resolution=_angular_resolution(cam))
+    return cam
 
 
 #: The electron-level sensor's fields a design may set, in the units a user reads them in:
@@ -191,9 +231,13 @@ def with_sensor(camera, bits=..., **values):
     ``bits`` the ADC's (None: unquantized; omitted: kept). What follows from them:
 
     * ``pixel_pitch_um``: the sensor keeps its size, so its pixel array
-      scales (height, width); the angular resolution follows from the pitch
-      and the focal length; the full well, unless given, scales with the
-      pixel's area (the same electrons per um^2).
+      scales (height, width); the angular resolution follows from the pitch,
+      the focal length and the distance (:func:`angular_resolution_for`);
+      the full well, unless given, scales with the pixel's area (the same electrons per um^2).
+    * A camera whose angular resolution is its pitch and focal length's (at
+      infinity or at its distance: a sheet's camera moved to another
+      distance) gets the one at its distance, pitch / (f (1 + m)) radians
+      per pixel, whichever fields change.
     * When the camera's ADC range spans its full well (the shipped sheets'
       ``electrons_per_dn = full_well / (2^bits - 1)``), it keeps spanning
       it at a new full well or bit depth: an 8-bit readout of a 12-bit
@@ -215,13 +259,14 @@ def with_sensor(camera, bits=..., **values):
                 or not np.isfinite(value) or not low <= value <= high:
             raise ParameterError(name, f"must be a number of {unit} in [{low:g}, {high:g}], got {value!r}")
     spans = _spans_full_well(camera)
+    follows = _follows_lens(camera)
     changes = {}
     full_well = camera.full_well
     if "pixel_pitch_um" in values:
         pitch = float(values["pixel_pitch_um"]) * 1e-6
         old = camera.pixel_size[1]
         k = old / pitch
-        phi = angular_resolution_for(pitch, camera.focal_length)
+        phi = angular_resolution_for(pitch, camera.focal_length, camera.distance)
         changes.update(pixel_size=(pitch, pitch), angular_resolution=(phi, phi),
                        height=max(1, int(round(camera.height * k))), width=max(1, int(round(camera.width * k))))
         if full_well is not None:
@@ -240,6 +285,10 @@ def with_sensor(camera, bits=..., **values):
         changes["dsnu"] = float(values["dsnu_e"])
     if "prnu_pct" in values:
         changes["prnu"] = float(values["prnu_pct"]) / 100.0
+    if follows and "angular_resolution" not in changes:
+        phi = _angular_resolution(camera)
+        if phi != camera.angular_resolution:
+            changes["angular_resolution"] = phi
     if bits is not ...:
         changes["bits"] = bits
     new_bits = changes.get("bits", camera.bits)

@@ -9,7 +9,8 @@
 from .diffraction import MIN_F_NUMBER, cutoff_frequency, defocus_otf, defocus_waves, diffraction_mtf
 from .irradiance import cos4, field_angles, image_distance, image_irradiance, magnification, sample_pitch
 from .fused import OTF_TOLERANCE, lens_sensor_responses, otf_factors
-from .stage import OPTICS, blur_planes, optics, optics_active, plane_otfs, relative_illumination_map, sensor_irradiance
+from .stage import OPTICS, blur_planes, optics, optics_active, plane_otfs, relative_illumination_map, sensor_irradiance, \
+    working_f_number
 
 __all__ = [
     "diffraction_mtf",
@@ -33,4 +34,5 @@ __all__ = [
     "relative_illumination_map",
     "sensor_irradiance",
     "OPTICS",
+    "working_f_number",
 ]

@@ -194,12 +194,12 @@ def lens_sensor_responses(camera, image):
     h, w, n = image.data.shape
     k = len(camera.sensors.names)
     wl = np.asarray(image.wavelengths, float)
-    pitch, waves = blur_geometry(camera, image)
-    (my, mx), (hp, wp) = padded_grid((h, w), pitch, wl, camera.f_stop, waves)
+    pitch, waves, n_w = blur_geometry(camera, image)  # n_w: the working f-number N (1 + m)
+    (my, mx), (hp, wp) = padded_grid((h, w), pitch, wl, n_w, waves)
     pads = ((my, hp - h - my), (mx, wp - w - mx))
     if max(pads[0]) > h or max(pads[1]) > w:  # an image smaller than the blur: padding reflects repeatedly
         return sensor_responses(camera, optics(camera, image))
-    factors = otf_factors((hp, wp), pitch, wl, camera.f_stop, waves, dtype=np.float32)
+    factors = otf_factors((hp, wp), pitch, wl, n_w, waves, dtype=np.float32)
     if factors[1].shape[1] * k + k >= 2 * n:
         return sensor_responses(camera, optics(camera, image))
     spectral, spatial, scalar = photometry(camera, image)

@@ -12,7 +12,9 @@ What it does, in this order:
 1. **Blur** (``optics="diffraction"``): each plane is multiplied, in the
    frequency domain, by the diffraction-limited OTF of the camera's pupil
    at that plane's wavelength (with ``defocus`` in dioptres: the defocused
-   pupil's OTF), on the frequency grid of the plane's own sampling at the
+   pupil's OTF) and the working f-number N (1 + m) of the lens focused at
+   the camera's distance (:func:`working_f_number`: 2 N at unit
+   magnification), on the frequency grid of the plane's own sampling at the
    sensor (:func:`~camsim_core.optics.irradiance.sample_pitch`). Blue planes
    get a higher cutoff than red ones; a larger f-number a lower one. The
    planes are padded by mirror reflection (no wrap-around), and the OTF is
@@ -45,7 +47,7 @@ from ..spectra import Spectrum
 from .diffraction import defocus_otf, defocus_waves, diffraction_mtf
 from .irradiance import cos4, field_angles, image_distance, image_irradiance, magnification, sample_pitch
 
-__all__ = ["optics", "optics_active", "blur_planes", "plane_otfs", "relative_illumination_map", "sensor_irradiance", "OPTICS"]
+__all__ = ["optics", "optics_active", "working_f_number", "blur_planes", "plane_otfs", "relative_illumination_map", "sensor_irradiance", "OPTICS"]
 
 #: Values of ``Camera.optics``.
 OPTICS = ("none", "diffraction")
@@ -216,14 +218,28 @@ def relative_illumination_map(camera, image):
     return ri
 
 
+def working_f_number(camera, distance):
+    """The working f-number N (1 + m) of the camera's lens focused at ``distance`` m (m = f / (d - f)).
+
+    The image-side cone of a lens focused at a finite distance is narrower
+    than at infinity: the exit pupil is seen from the image distance
+    s' = f (1 + m), not from f. The irradiance falls as 1 / (N (1 + m))^2
+    (:func:`photometry`) and the diffraction cutoff is 1 / (lambda N (1 + m))
+    (ISETCam's dlMTF uses the same effective f-number). At infinity
+    focus m -> 0 and N_w -> N; at unit magnification (a 50 mm lens at 0.1 m) N_w = 2 N.
+    """
+    return float(camera.f_stop) * (1.0 + magnification(camera.focal_length, distance))
+
+
 def blur_geometry(camera, image):
-    """(pitch, defocus): the image's sample spacing at the sensor (dy, dx) in m, and W020 in waves per
-    plane (None when in focus), for the camera's diffraction blur."""
+    """(pitch, defocus, f_number): the image's sample spacing at the sensor (dy, dx) in m, W020 in waves per
+    plane (None when in focus), and the working f-number N (1 + m) (:func:`working_f_number`) of the
+    camera's diffraction blur at its focus distance."""
     d = camera.distance if camera.distance is not None else image.distance
     pitch = sample_pitch(image.angular_resolution, image.distance, d, camera.focal_length)
     wl = np.asarray(image.wavelengths, float)
     waves = defocus_waves(camera.defocus, wl, camera.f_stop, camera.focal_length) if camera.defocus else None
-    return pitch, waves
+    return pitch, waves, working_f_number(camera, d)
 
 
 def photometry(camera, image):
@@ -261,8 +277,8 @@ def optics(camera, image):
         data = data[:, :, None]
     wl = np.asarray(image.wavelengths, float)
     if camera.optics == "diffraction":
-        pitch, waves = blur_geometry(camera, image)
-        data = blur_planes(data, wl, pitch, camera.f_stop, waves)
+        pitch, waves, n_w = blur_geometry(camera, image)
+        data = blur_planes(data, wl, pitch, n_w, waves)
     spectral, spatial, scalar = photometry(camera, image)
     factor = scalar
     if spectral is not None:
