@@ -20,15 +20,24 @@ A stage made in two parts (``prepare`` of :func:`camsim_core.simulation._stage.s
 the sensor stage's sums over the spectral planes, then the exposure's gain)
 keeps its first part while the fields that part reads stay the same, so an
 exposure or f-stop move scales the kept sums instead of summing the cube
-again, for the camera and for the ideal camera's cones; a fresh run makes
-the same two parts, so the numbers are the same.
+again, for the camera (and for the chapter's ideal camera's cones); a fresh
+run makes the same two parts, so the numbers are the same.
+
+The ideal image (``Processing.reference``, :func:`camsim_core.ideal_image`)
+is by default the scene's: it depends on the scene, the camera's pixel grid
+(angular resolution, distance, array size) and the monitor only, so an
+exposure, f-number, bit depth, noise, pedestal, sensor or optics move never
+recomputes it; the scene's cone responses are kept while the scene stays, so
+a distance move only resamples and renders them. The chapter's reference
+(the cone camera at the camera's exposure and bits) is recomputed when its
+ideal camera changes.
 
 The ideal image's side (``ideal``, ``ideal_xyz`` and the ideal image's
 L*a*b* for each error map) needs nothing of the camera's image: when it must
-be recomputed (a new scene, exposure, geometry or monitor) it runs on a
+be recomputed (a new scene, geometry or monitor) it runs on a
 thread of its own beside the camera's side, on the core the camera's mostly
-unsplit small steps leave idle (an exposure move on the default scene: ~28
--> ~22 ms); on one core, and when it is cached, it runs in the calling thread.
+unsplit small steps leave idle (an exposure move on the default scene, when
+the chapter's reference made the ideal image move with it: ~28 -> ~22 ms); on one core, and when it is cached, it runs in the calling thread.
 Meanwhile the camera's side makes its own image's L*a*b* for the error maps,
 so that only the differences wait for the join.
 
@@ -95,6 +104,14 @@ class Processing:
         degree (:func:`camsim_core.metrics.parse_viewing`): "camera" (the
         chapter's: the camera's angular resolution), "camera/10" (the
         original's example), "spd:S", "display:PITCHmm@DISTANCEm".
+    reference : str
+        The ideal image the error maps compare with
+        (:func:`camsim_core.ideal_image`): "scene" (the default: the scene
+        through the cones on the camera's pixel grid, an ideal lens,
+        unquantized, normalised by the scene's white; it depends on the
+        scene, the camera's pixel grid and the monitor only) or "chapter"
+        (section 4.3: the cone camera at the camera's exposure, f-number,
+        optics and bit depth).
     """
 
     demosaic: str = "bilinear"
@@ -103,6 +120,7 @@ class Processing:
     monitor: str = "simtoolbox-test"
     metrics: tuple = ("cielab", "scielab")
     viewing: str = "camera"
+    reference: str = "scene"
 
 
 @dataclass
@@ -229,28 +247,35 @@ class Pipeline:
         return self._ideal_lab[key]
 
     def _ideal_step_key(self, camera, proc):
-        """The ideal step's key: the ideal image depends on the camera only through its ideal counterpart
-        (cones, no mosaic, no noise, same geometry and exposure). Raises CamsimError."""
-        from .rendering import ideal_camera
+        """The ideal step's key: what the ideal image depends on. The scene's reference: the scene (its
+        token: a new light level is a new scene), the camera's pixel grid (the fields of the resampling
+        stage, :data:`~camsim_core.rendering.ideal.GEOMETRY_FIELDS`) and the monitor, so that an exposure,
+        f-number, bit depth, noise, pedestal, sensor or optics move keeps it. The chapter's: the camera's
+        ideal counterpart (cones, no mosaic, no noise, same geometry, exposure and bits). Raises CamsimError."""
+        from .rendering import ideal
 
-        return (self._memo["scene"][1], _ideal_key(ideal_camera(camera)), proc.monitor)
+        reference = ideal.check_reference(proc.reference)
+        if reference == "scene":
+            return ("scene", self._memo["scene"][1], _camera_key(camera, ideal.GEOMETRY_FIELDS), proc.monitor)
+        return ("chapter", self._memo["scene"][1], _ideal_key(ideal.ideal_camera(camera)), proc.monitor)
 
     def _ideal_branch(self, scene, camera, proc, ideal_key, refused, result):
         """The ideal image (step key ``ideal_key``, or ``refused``: why there is none), its XYZ and the
         L*a*b* of each error map's ideal side, into ``result``; returns the tokens ``(t_ideal, t_ixyz)``
         (``None`` for a step that failed)."""
-        from . import load_monitor, metrics, to_xyz
-        from .rendering import white_xyz
+        from . import load_monitor, metrics
+        from .rendering import ideal, white_xyz
 
         if refused is not None:
             result.errors["ideal"] = refused
             return None, None
         monitor = load_monitor(proc.monitor)
-        t_ideal, result.ideal = self._step("ideal", ideal_key, lambda: self._ideal_image(scene, camera, monitor), result)
+        t_ideal, result.ideal = self._step("ideal", ideal_key, lambda: self._ideal_image(scene, camera, monitor, ideal_key[0]),
+                                           result)
         if t_ideal is None:
             return None, None
-        t_ixyz, result.ideal_xyz = self._step(
-            "ideal_xyz", (t_ideal, proc.monitor), lambda: to_xyz(result.ideal, monitor), result
+        t_ixyz, result.ideal_xyz = self._step(  # to_xyz's numbers, in a compiled pass for an unquantized ideal image
+            "ideal_xyz", (t_ideal, proc.monitor), lambda: ideal.ideal_xyz(result.ideal, monitor), result
         )
         if t_ixyz is None:
             return t_ideal, None
@@ -265,11 +290,16 @@ class Pipeline:
             self._ideal_side(("scielab", t_ixyz, spd), lambda: metrics.filtered_lab(_data(result.ideal_xyz), spd, white))
         return t_ideal, t_ixyz
 
-    def _ideal_image(self, scene, camera, monitor):
-        """:func:`camsim_core.ideal_image` of ``scene`` for ``camera``, the ideal camera's first stage's first
-        part (the cone sums over the scene's planes) kept: an exposure move re-scales them (the same numbers)."""
+    def _ideal_image(self, scene, camera, monitor, reference="scene"):
+        """:func:`camsim_core.ideal_image` of ``scene`` for ``camera`` (the same numbers). The scene's reference:
+        the scene's cone responses kept while the scene stays (a distance or frame move only resamples and
+        renders them). The chapter's: the ideal camera's first stage's first part (the cone sums over the
+        scene's planes) kept, so that an exposure move re-scales them."""
         from .rendering import ideal
 
+        if reference == "scene":
+            cones = self._kept("ideal:cones", self._memo["scene"][1], lambda: ideal.scene_cones(scene))
+            return ideal.render_scene_ideal(cones, camera, monitor, name=f"ideal {scene.name}")
         cam = ideal.ideal_camera(camera)
         image = image_from_scene(scene)
         for i, stage in enumerate(cam.architecture):
@@ -343,7 +373,7 @@ class Pipeline:
         if memo is None or memo[2] is not scene:
             self._memo["scene"] = (id(scene), next(_tokens), scene)
         # the ideal image's side (ideal image, its XYZ, its L*a*b*) needs nothing of the camera's image: when it
-        # must be recomputed (a new scene, exposure, geometry or monitor) it runs beside the camera's side
+        # must be recomputed (a new scene, geometry or monitor) it runs beside the camera's side
         branch = Result(scene=scene, camera=camera)
         try:
             ideal_key, refused = self._ideal_step_key(camera, proc), None

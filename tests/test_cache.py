@@ -43,14 +43,24 @@ def test_exposure_change_reruns_from_the_sensor_stage(scene, camera):
     p = Pipeline()
     p.run(scene, camera, CIELAB)
     r = p.run(scene, camera.replace(exposure=0.12), CIELAB)
+    # the scene's ideal image does not depend on the exposure: it is not recomputed
+    assert r.ran_steps == ["stage:sensor_responses", "stage:resample", "stage:mosaic", "stage:noise", "stage:digitize",
+                           "demosaic", "render", "xyz", "delta_e"]
+    # the chapter's reference (the cone camera at the camera's exposure) is
+    chapter = Processing(metrics=("cielab",), reference="chapter")
+    p.run(scene, camera, chapter)
+    r = p.run(scene, camera.replace(exposure=0.14), chapter)
     assert r.ran_steps == ["stage:sensor_responses", "stage:resample", "stage:mosaic", "stage:noise", "stage:digitize",
                            "demosaic", "render", "ideal", "xyz", "ideal_xyz", "delta_e"]
 
 
-def test_exposure_and_f_stop_moves_rescale_the_kept_sums_with_the_numbers_of_a_fresh_run(scene, camera, monkeypatch):
+@pytest.mark.parametrize("reference", ["scene", "chapter"])
+def test_exposure_and_f_stop_moves_rescale_the_kept_sums_with_the_numbers_of_a_fresh_run(scene, camera, monkeypatch,
+                                                                                          reference):
     """The sensor stage is made in two parts: its sums over the scene's planes (the camera's and the ideal
-    camera's cones) are kept while the sensors stay, so an exposure or f-stop move sums the cube zero times.
-    The outputs are those of the whole stage: simulate(), ideal_image() and a serial pipeline's fresh run."""
+    image's cones) are kept while the sensors stay, so an exposure or f-stop move sums the cube zero times.
+    The outputs are those of the whole stage: simulate(), ideal_image() and a serial pipeline's fresh run.
+    The scene's ideal image is not recomputed at all; the chapter's is, beside the camera's side."""
     from camsim_core import cache
     from camsim_core.simulation import sensor
 
@@ -77,18 +87,19 @@ def test_exposure_and_f_stop_moves_rescale_the_kept_sums_with_the_numbers_of_a_f
 
     monkeypatch.setattr(ideal_module, "render_ideal", slow_render_ideal)
     monkeypatch.setattr(Pipeline, "_camera_lab", camera_lab)
-    both = Processing(metrics=("cielab", "scielab"))
+    both = Processing(metrics=("cielab", "scielab"), reference=reference)
     p = Pipeline()
     p.run(scene, camera, both)
-    assert len(sums) == 2  # the camera's sensors and the ideal camera's cones, once each
+    assert len(sums) == 2  # the camera's sensors and the ideal image's cones, once each
     for moved in (camera.replace(exposure=0.13), camera.replace(exposure=0.13, f_stop=8.0)):
         sums.clear()
         r = p.run(scene, moved, both)
         assert sums == [] and r.errors == {}
-        assert r.ran_steps[:2] == ["stage:sensor_responses", "stage:resample"] and "ideal" in r.ran_steps
+        assert r.ran_steps[:2] == ["stage:sensor_responses", "stage:resample"]
+        assert ("ideal" in r.ran_steps) == (reference == "chapter")
         assert np.array_equal(_array(r.raw), _array(cc.simulate(scene, moved)))
         monitor = cc.load_monitor(both.monitor)
-        assert np.array_equal(_array(r.ideal), _array(cc.ideal_image(scene, moved, monitor)))
+        assert np.array_equal(_array(r.ideal), _array(cc.ideal_image(scene, moved, monitor, reference=reference)))
         with monkeypatch.context() as serial:  # one core: no ideal side beside, the error maps made at the join
             serial.setattr(cache, "CORES", 1)
             fresh = Pipeline().run(scene, moved, both)
@@ -97,9 +108,9 @@ def test_exposure_and_f_stop_moves_rescale_the_kept_sums_with_the_numbers_of_a_f
         # a linear sensor: response proportional to exposure time and aperture area
         expected_gain = moved.exposure / moved.cal_exposure * (moved.cal_f_stop / moved.f_stop) ** 2
         assert r.raw.gain == fresh.raw.gain == pytest.approx(expected_gain, rel=1e-15)
-    if cache.CORES > 1:  # the moves' error maps were made from the camera's L*a*b* made beside the ideal side
+    if cache.CORES > 1 and reference == "chapter":  # the moves' error maps: the camera's L*a*b* made beside the ideal side
         assert len(early) >= 2 and all(set(e) == {"cielab", "scielab"} for e in early[-2:])
-    # other sensors: the camera's sums are made again, the ideal camera's cones are still at hand
+    # other sensors: the camera's sums are made again, the ideal image's cones are still at hand
     sums.clear()
     p.run(scene, camera.replace(exposure=0.13, f_stop=8.0, sensors=cc.load_camera("gaussian-4").sensors), both)
     assert len(sums) == 1 and sums[0][1] == 4
@@ -216,11 +227,12 @@ def test_a_full_colour_image_is_processed_without_demosaicing(scene, name):
 
 
 def test_the_ideal_camera_itself_scores_zero(scene):
-    """The ideal image's own camera (cones, no mosaic, no noise, 8 bits, baseline) has dE 0 exactly."""
+    """The chapter's ideal image's own camera (cones, no mosaic, no noise, 8 bits, baseline) has dE 0 exactly
+    against the chapter's reference."""
     from camsim_core.rendering import ideal_camera
 
     cam = cc.load_camera("kodak-dcs200-ir").replace(distance=3.32, exposure=0.1, f_stop=11.0, noise_sigma=0.0)
-    r = Pipeline().run(scene, ideal_camera(cam), CIELAB)
+    r = Pipeline().run(scene, ideal_camera(cam), Processing(metrics=("cielab",), reference="chapter"))
     assert r.errors == {} and "demosaic" in r.skipped
     assert np.array_equal(_array(r.rendered), _array(r.ideal))
     assert float(np.max(r.delta_e)) == 0.0
@@ -246,7 +258,7 @@ def test_a_pipeline_started_from_anothers_snapshot_reruns_only_what_differs(scen
 
 
 def test_the_ideal_side_runs_beside_the_camera_side_with_the_same_numbers(scene, camera, monkeypatch):
-    """An exposure move recomputes the ideal image on a thread of its own (the camera's side keeps the
+    """A distance move recomputes the ideal image on a thread of its own (the camera's side keeps the
     calling thread); the steps are listed as a serial run lists them, and the outputs equal a serial run's."""
     import threading
 
@@ -255,7 +267,7 @@ def test_the_ideal_side_runs_beside_the_camera_side_with_the_same_numbers(scene,
     from camsim_core.rendering import ideal as ideal_module
 
     threads = {}
-    real_render_ideal, real_demosaic = ideal_module.render_ideal, cc.demosaic
+    real_render_ideal, real_demosaic = ideal_module.render_scene_ideal, cc.demosaic
 
     def render_ideal(*args, **kw):  # the last of the ideal image's steps
         threads["ideal"] = threading.current_thread().name
@@ -265,22 +277,22 @@ def test_the_ideal_side_runs_beside_the_camera_side_with_the_same_numbers(scene,
         threads["demosaic"] = threading.current_thread().name
         return real_demosaic(*args, **kw)
 
-    monkeypatch.setattr(ideal_module, "render_ideal", render_ideal)
+    monkeypatch.setattr(ideal_module, "render_scene_ideal", render_ideal)
     monkeypatch.setattr(cc, "demosaic", demosaic)
     p = Pipeline()
     p.run(scene, camera, Processing())
-    r = p.run(scene, camera.replace(exposure=0.12), Processing())
+    r = p.run(scene, camera.replace(distance=3.0), Processing())
     here = threading.current_thread().name
     assert threads["demosaic"] == here
     assert threads["ideal"] != here and threads["ideal"].startswith("camsim-ideal")
-    assert r.ran_steps == ["stage:sensor_responses", "stage:resample", "stage:mosaic", "stage:noise", "stage:digitize",
+    assert r.ran_steps == ["stage:resample", "stage:mosaic", "stage:noise", "stage:digitize",
                            "demosaic", "render", "ideal", "xyz", "ideal_xyz", "delta_e", "scielab"]
     assert 0 < r.elapsed
     # one core: everything in the calling thread, the same numbers
     monkeypatch.setattr(cache, "CORES", 1)
     serial = Pipeline()
     serial.run(scene, camera, Processing())
-    s = serial.run(scene, camera.replace(exposure=0.12), Processing())
+    s = serial.run(scene, camera.replace(distance=3.0), Processing())
     assert threads["ideal"] == here
     assert s.ran_steps == r.ran_steps
     for name in OUTPUTS:
@@ -298,7 +310,7 @@ def test_a_failed_stage_still_reports_the_ideal_side(scene, camera):
             raise cc.ParameterError("broken", "refused on purpose")
         return image
 
-    bad = camera.replace(exposure=0.12, architecture=camera.architecture[:2] + (broken,) + camera.architecture[3:])
+    bad = camera.replace(distance=3.0, architecture=camera.architecture[:2] + (broken,) + camera.architecture[3:])
     r = p.run(scene, bad, CIELAB)
     assert set(r.errors) == {"stage:broken"} and "refused on purpose" in r.errors["stage:broken"]
     assert r.raw is None and r.rendered is None and r.delta_e is None
@@ -315,7 +327,7 @@ def test_an_unexpected_error_waits_for_the_ideal_side(scene, camera, monkeypatch
 
     from camsim_core.rendering import ideal as ideal_module
 
-    real_render_ideal = ideal_module.render_ideal
+    real_render_ideal = ideal_module.render_scene_ideal
     ended = threading.Event()
 
     def slow_render_ideal(*args, **kw):  # the last of the ideal image's steps
@@ -329,8 +341,51 @@ def test_an_unexpected_error_waits_for_the_ideal_side(scene, camera, monkeypatch
 
     p = Pipeline()
     p.run(scene, camera, CIELAB)
-    monkeypatch.setattr(ideal_module, "render_ideal", slow_render_ideal)
+    monkeypatch.setattr(ideal_module, "render_scene_ideal", slow_render_ideal)
     monkeypatch.setattr(cc, "demosaic", no_memory)
     with pytest.raises(MemoryError):
-        p.run(scene, camera.replace(exposure=0.12), CIELAB)
+        p.run(scene, camera.replace(distance=3.0), CIELAB)
     assert ended.is_set()
+
+
+def test_the_scene_ideal_is_computed_only_when_the_scene_grid_or_monitor_moves(scene, camera, monkeypatch):
+    """The scene's ideal image depends on the scene, the camera's pixel grid and the monitor only: a move of
+    exposure, f-number, bits, noise, seed, pedestal, sensors, mosaic or optics computes it zero times (the
+    same object is returned), a distance move re-renders the kept cone responses without summing the cube,
+    and a new scene (a light level) or monitor computes it again. Counted at the ideal module's functions."""
+    from camsim_core.rendering import ideal as ideal_module
+
+    counts = {"cones": 0, "render": 0}
+    real_cones, real_render = ideal_module.scene_cones, ideal_module.render_scene_ideal
+
+    def cones(*args, **kw):
+        counts["cones"] += 1
+        return real_cones(*args, **kw)
+
+    def render(*args, **kw):
+        counts["render"] += 1
+        return real_render(*args, **kw)
+
+    monkeypatch.setattr(ideal_module, "scene_cones", cones)
+    monkeypatch.setattr(ideal_module, "render_scene_ideal", render)
+    p = Pipeline()
+    first = p.run(scene, camera, CIELAB)
+    assert counts == {"cones": 1, "render": 1} and first.errors == {}
+    kept = first.ideal
+    moves = [camera.replace(exposure=1.6), camera.replace(f_stop=4.0), camera.replace(bits=12),
+             camera.replace(bits=None), camera.replace(noise_sigma=5.0, seed=3), camera.replace(black_level=16.0),
+             camera.replace(sensors=cc.load_camera("gaussian-4").sensors, mosaic=FOUR_SENSOR_GRID),
+             camera.replace(mosaic=BAYER["RGGB"]), camera.replace(optics="diffraction", relative_illumination=True)]
+    for moved in moves:
+        r = p.run(scene, moved, CIELAB)
+        assert r.errors == {}, r.errors
+        assert counts == {"cones": 1, "render": 1} and "ideal" not in r.ran_steps
+        assert r.ideal is kept and "ideal_xyz" not in r.ran_steps
+    r = p.run(scene, camera.replace(distance=3.0), CIELAB)
+    assert counts == {"cones": 1, "render": 2} and "ideal" in r.ran_steps  # resampled and rendered, not summed
+    assert not np.array_equal(_array(r.ideal), _array(kept))
+    r = p.run(scene, camera.replace(distance=3.0), Processing(metrics=("cielab",), monitor="brainard-crt"))
+    assert counts == {"cones": 1, "render": 3}
+    brighter = cc.scene.scale_light(scene, 2.0)
+    r = p.run(brighter, camera.replace(distance=3.0), CIELAB)
+    assert counts == {"cones": 2, "render": 4} and r.errors == {}

@@ -19,16 +19,25 @@ def test_ideal_has_camera_geometry_and_cones(monitor):
     scene = macbeth_scene("D65", patch_size=10, border=2)
     cam = camera_preset("kodak-dcs200-ir", noise_sigma=3.0)
     raw = cs.simulate(scene, cam, exposure=0.05)
-    ideal = cs.ideal_image(scene, cam, monitor, exposure=0.05)
+    # the default (the scene's reference): the camera's pixel grid, the monitor's frame-buffer scale, not quantized
+    scene_ideal = cs.ideal_image(scene, cam, monitor, exposure=0.05)
+    assert scene_ideal.data.shape == raw.data.shape + (3,)  # same spatial resolution as the camera image
+    assert scene_ideal.space == "monitor" and scene_ideal.bits == 8 and not scene_ideal.quantized
+    assert scene_ideal.angular_resolution == raw.angular_resolution
+    assert scene_ideal.extra["reference"] == "scene" and not np.array_equal(scene_ideal.data, np.rint(scene_ideal.data))
+    # the chapter's reference (section 4.3): the cone camera quantized like the camera
+    ideal = cs.ideal_image(scene, cam, monitor, exposure=0.05, reference="chapter")
     assert ideal.data.shape == raw.data.shape + (3,)  # same spatial resolution as the camera image
-    assert ideal.space == "monitor" and ideal.bits == 8 and ideal.quantized
+    assert ideal.space == "monitor" and ideal.bits == 8 and ideal.quantized and ideal.extra["reference"] == "chapter"
     assert ideal.angular_resolution == raw.angular_resolution
     icam = ideal_camera(cam)
     assert icam.mosaic is None and icam.noise_sigma == 0 and icam.bits == cam.bits
     assert np.array_equal(icam.sensors.values, camera_preset("human-cones").sensors.values)
     # noiseless: the same picture twice is identical, and a uniform patch stays uniform
-    again = cs.ideal_image(scene, cam, monitor, exposure=0.05, seed=7)
+    again = cs.ideal_image(scene, cam, monitor, exposure=0.05, seed=7, reference="chapter")
     assert np.array_equal(ideal.data, again.data)
+    with pytest.raises(cs.ParameterError, match="reference"):
+        cs.ideal_image(scene, cam, monitor, reference="camera")
 
 
 def test_ideal_white_is_colorimetric_and_fills_the_display(monitor):

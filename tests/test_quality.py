@@ -61,7 +61,7 @@ def _chart_images(name, scene):
     cam = camera_preset(name).replace(mosaic=None, noise_sigma=0.0)
     ex = cs.auto_exposure(scene, cam)
     rendered = cs.render(cs.simulate(scene, cam, exposure=ex), MONITOR)
-    return rendered, cs.ideal_image(scene, cam, MONITOR, exposure=ex)
+    return rendered, cs.ideal_image(scene, cam, MONITOR, exposure=ex, reference="chapter")  # quantized as the camera
 
 
 def test_cone_camera_macbeth_de_is_zero_and_a_real_camera_is_not():

@@ -14,7 +14,7 @@ from camsim_core.review.difference import ab_difference
 from camsim_core.review.report import colour_map, report_html, shared_scale
 
 DCS = {"camera": "kodak-dcs200-ir"}
-CONES = {"camera": "human-cones"}
+CONES = {"camera": "human-cones", "bits": 0}  # unquantized: differs from the scene's ideal image by the display's rounding
 
 
 @pytest.fixture(scope="module")
@@ -48,9 +48,10 @@ def test_camera_from_params_builds_the_engine_objects():
 
 
 def test_cones_design_is_the_ideal_image_and_dcs200_is_not(dcs, cones):
-    # the ideal image is the cones camera (no mosaic, no noise, 8 bits, baseline): zero error, exactly
-    assert cones.measures["cielab"] == {"mean": 0.0, "median": 0.0, "p95": 0.0}
-    assert np.array_equal(cones.rendered, cones.ideal)
+    # the ideal image is the scene through the cones, unquantized: the unquantized, noiseless cones camera's
+    # rendering is it rounded to the monitor's integer values (half a step, and float32 rounding, at most)
+    assert np.abs(cones.rendered - cones.ideal).max() <= 0.5 + 1e-3
+    assert cones.measures["cielab"]["mean"] < 0.5 and cones.measures["cielab"]["p95"] < 1.0
     assert dcs.measures["cielab"]["mean"] > 5 and dcs.measures["scielab"]["mean"] > 5
 
 
@@ -66,19 +67,23 @@ def test_measures_match_a_direct_run_of_the_engine(dcs):
     de = cc.metrics.delta_e(np.asarray(cc.to_xyz(rendered, mon).data), np.asarray(cc.to_xyz(ideal, mon).data),
                             np.asarray(white_xyz(mon), float))
     assert np.array_equal(dcs.rendered, rendered.data)
-    assert dcs.measures["cielab"]["mean"] == pytest.approx(float(np.mean(de, dtype=np.float64)), rel=1e-12)
-    assert dcs.measures["cielab"]["median"] == pytest.approx(float(np.median(de)), rel=1e-12)
-    assert dcs.measures["cielab"]["p95"] == pytest.approx(float(np.percentile(de, 95)), rel=1e-12)
+    assert np.array_equal(dcs.ideal, ideal.data)
+    # the pipeline takes the unquantized ideal image to XYZ in float64 (rendering.ideal.ideal_xyz), to_xyz in
+    # float32: the same to float32 rounding
+    assert dcs.measures["cielab"]["mean"] == pytest.approx(float(np.mean(de, dtype=np.float64)), rel=1e-6)
+    de = np.asarray(de, float)  # the median and percentile of the float32 map, in float64 as the review takes them
+    assert dcs.measures["cielab"]["median"] == pytest.approx(float(np.median(de)), rel=1e-6)
+    assert dcs.measures["cielab"]["p95"] == pytest.approx(float(np.percentile(de, 95)), rel=1e-6)
 
 
 def test_ab_difference_against_the_ideal_design_is_the_error_map(dcs, cones):
-    # the cones design renders the ideal image, so dE(dcs, cones) is dcs's own error map (to float32 rounding:
-    # the shipped scene is float32, and the cones' rendering and the ideal image round differently: at most
-    # 1.1e-4 dE, in dark pixels where L*a*b* magnifies rounding)
+    # the cones design renders the ideal image to the display's rounding, so dE(dcs, cones) is dcs's own error
+    # map within the cones' (dE*ab is a distance in L*a*b*: the triangle inequality, to float32 rounding)
     ab = ab_difference(dcs, cones)
-    assert np.allclose(ab["delta_e"], dcs.delta_e, rtol=0, atol=5e-4)
-    assert ab["b_wins_fraction"] == pytest.approx(float(np.mean(dcs.delta_e > 0)))
-    assert ab["a_wins_fraction"] == 0.0
+    assert np.all(np.abs(ab["delta_e"] - dcs.delta_e) <= cones.delta_e + 5e-4)
+    assert ab["b_wins_fraction"] == pytest.approx(float(np.mean(dcs.delta_e > cones.delta_e)))
+    assert ab["b_wins_fraction"] > 0.99
+    assert ab["a_wins_fraction"] < 0.01
     same = ab_difference(dcs, dcs)
     assert np.all(same["delta_e"] == 0) and same["a_wins_fraction"] == same["b_wins_fraction"] == 0.0
     far = evaluate_design({"distance": 6.0}, "far", metrics=("cielab",))
@@ -95,7 +100,7 @@ def test_sweep_points_equal_each_configuration_run_alone():
         alone = evaluate_design({**dict(designs)[p.name], "noise_sigma": p.value}, p.name, metrics=("cielab",))
         assert p.error is None and p.measures == alone.measures
     by = {(p.name, p.value): p.measure() for p in arrived}
-    assert by[("cones", 0.0)] == 0.0 < by[("cones", 3.0)] < by[("cones", 6.0)]  # error grows with noise
+    assert by[("cones", 0.0)] < 0.5 and by[("cones", 0.0)] < by[("cones", 3.0)] < by[("cones", 6.0)]  # grows with noise
     assert by[("dcs", 0.0)] < by[("dcs", 3.0)] < by[("dcs", 6.0)]
 
 

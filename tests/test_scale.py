@@ -338,7 +338,7 @@ def test_pipeline_keeps_the_ideal_lab_and_still_gives_fresh_numbers(base, camera
 
 @pytest.mark.parametrize("beside", [True, False])
 def test_an_scielab_move_checks_each_xyz_image_once(base, camera, monkeypatch, beside):
-    """An exposure move with S-CIELAB shown makes both images again; each one's finiteness pass runs once
+    """A distance move with S-CIELAB shown makes both images again; each one's finiteness pass runs once
     (the ideal's where its filtered L*a*b* is made; the camera's there too when it is made beside the ideal
     side, else in the error-map step after the join), and the map is the same either way."""
     from camsim_core import cache
@@ -367,7 +367,7 @@ def test_an_scielab_move_checks_each_xyz_image_once(base, camera, monkeypatch, b
     p.run(base, camera, shown)
     checked.clear()
     made.clear()
-    moved = camera.replace(exposure=camera.exposure * 1.2)
+    moved = camera.replace(distance=camera.distance * 1.1)  # (an exposure move keeps the scene's ideal image)
     r = p.run(base, moved, shown)
     assert "ideal" in r.ran_steps and "scielab" in r.ran_steps
     assert sorted(checked) == ["xyz", "xyz1"], checked

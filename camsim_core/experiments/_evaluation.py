@@ -66,10 +66,17 @@ def monitor(name):
 
 
 def ideal_reference(scene_name, camera, monitor_name, distance, exposure):
-    """XYZ of the ideal image of ``camera``'s geometry, the monitor white, and samples per degree."""
+    """XYZ of the ideal image of ``camera``'s geometry, the monitor white, and samples per degree.
+
+    The chapter's reference (section 4.3, ``reference="chapter"`` of
+    :func:`camsim_core.ideal_image`): the cone camera with ``camera``'s
+    geometry, 8-bit quantization and the experiment's ``exposure``, as the
+    chapter's experiments compared with it, so that their published tables
+    (``docs/``) stay reproducible. The explorer's default is the scene's.
+    """
     from ..rendering import ideal_image
     from ..scene import load_scene
 
     mon = monitor(monitor_name)
-    ideal = ideal_image(load_scene(scene_name), camera, mon, distance=distance, exposure=exposure)
+    ideal = ideal_image(load_scene(scene_name), camera, mon, distance=distance, exposure=exposure, reference="chapter")
     return xyz_of(ideal, mon), monitor_white(mon), samples_per_degree(ideal)

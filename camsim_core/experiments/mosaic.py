@@ -16,7 +16,9 @@ range) is demosaiced by the Bayesian method (references 24, 25; statistics
 from a bilinear demosaic of the image itself), rendered by the
 illuminant-based method with the scene's known illuminant and a linear
 model of the Munsell surfaces of as many dimensions as sensors (3-D, 4-D),
-and compared with the noiseless ideal image by the mean S-CIELAB dE*ab.
+and compared with the noiseless ideal image (the chapter's reference of
+section 4.3, ``reference="chapter"`` of :func:`camsim_core.ideal_image`) by
+the mean S-CIELAB dE*ab.
 
 As in :mod:`camsim_core.experiments.sensors`: one exposure per scene for
 both designs and the ideal image (:func:`~camsim_core.experiments.grid.common_exposure`

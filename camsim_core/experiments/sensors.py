@@ -8,7 +8,9 @@ deviation sigma (digital units, camera range 0-255). Each camera image is
 rendered on an 8-bit monitor by both methods of section 4.2 (baseline,
 Eq. 1.4; illuminant-based, Eqs. 1.5-1.7 with a 3-D linear model of the
 Munsell reflectances and the scene's known illuminant) and compared with
-the noiseless ideal image (section 4.3) by the mean S-CIELAB dE*ab.
+the noiseless ideal image (section 4.3: the chapter's reference, the 8-bit
+cone camera at the experiment's exposure, ``reference="chapter"`` of
+:func:`camsim_core.ideal_image`) by the mean S-CIELAB dE*ab.
 
 Choices the chapter leaves open, and why
 ----------------------------------------

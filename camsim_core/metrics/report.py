@@ -12,6 +12,14 @@ as the explorer does (demosaic, render) and measures what the scene allows:
 * ``"similarity"`` - PSNR and SSIM of the rendered image against the
   ideal image, beside the mean CIELAB dE (:mod:`.similarity`, :mod:`.cielab`).
 
+The ideal image is by default the scene's (``reference="scene"`` of
+:func:`camsim_core.ideal_image`: the scene through the cones on the camera's
+pixel grid, an ideal lens, unquantized, normalised by the scene's white), so
+the measures do not reward a dim or coarsely quantized camera with a
+reference as dim or coarse as itself; ``reference="chapter"`` compares with
+the chapter's 8-bit cone camera at the camera's exposure. ``camsim measure``
+uses the scene's.
+
 The result holds plain numbers and lists (JSON-ready).
 """
 
@@ -85,16 +93,20 @@ def measure_images(what, *, raw, demosaiced=None, rendered=None, ideal=None, mon
 
 
 def quality_report(scene, camera, what=None, *, demosaic="bilinear", monitor="simtoolbox-test", patches=None,
-                   **simulate_kwargs):
+                   reference="scene", **simulate_kwargs):
     """Simulate ``camera`` on ``scene`` and measure ``what`` (names of :data:`MEASURES`; default by scene name).
 
     ``patches`` (colour accuracy): "layout" or "detect"; by default the
     generator's layout for the Macbeth chart scene, and a chart found in
     the image for any other scene (a photo with a chart in it).
+    ``reference``: the ideal image colour accuracy and similarity compare
+    with, "scene" (default) or "chapter" (:func:`camsim_core.ideal_image`).
     """
     from .. import demosaic as run_demosaic
     from .. import ideal_image, load_camera, load_monitor, load_scene, render, simulate
+    from ..rendering.ideal import check_reference
 
+    reference = check_reference(reference)
     scene = load_scene(scene)
     cam = load_camera(camera)
     names = tuple(what) if what else default_measures(scene.name)
@@ -107,8 +119,10 @@ def quality_report(scene, camera, what=None, *, demosaic="bilinear", monitor="si
     rendered = ideal = None
     if "color" in names or "similarity" in names:
         rendered = render(full, mon)
-        ideal = ideal_image(scene, cam, mon, **simulate_kwargs)
+        ideal = ideal_image(scene, cam, mon, reference=reference, **simulate_kwargs)
     out = {"scene": scene.name, "camera": cam.name}
+    if ideal is not None:
+        out["reference"] = reference
     if patches is None:
         patches = "layout" if str(scene.name).lower() == "macbeth" else "detect"
     out.update(measure_images(names, raw=raw, demosaiced=full, rendered=rendered, ideal=ideal, monitor=mon, patches=patches))
