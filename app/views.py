@@ -511,7 +511,10 @@ class ResultsView:
               "raw_full": f"<span title='{_LINEAR_NOTE}'>Raw, no mosaic (every sensor at every pixel)</span>",
               "demosaiced": "Demosaiced",
               "rendered": "Rendered (the camera's image on the monitor)",
-              "ideal": "Ideal image (what a human observer would see)"}
+              "ideal": "<span title='The light of the scene through the human cones on the camera image pixel grid: "
+                       "an ideal lens, no noise, not quantized, the white of the scene at the white of the display. It "
+                       "does not change with the exposure, f-number, bits, noise or optics of the camera.'>Ideal: the "
+                       "scene through the cones, unquantized</span>"}
     KEYS = ("raw", "demosaiced", "rendered", "ideal", "de")
 
     def __init__(self, state):
