@@ -61,6 +61,12 @@ URL_PARAMETERS = (
 COMPARE_PARAMETERS = ("pinned", "sweep")
 
 
+from camsim_core.scene.charts import CHART_NAMES as _CHART_NAMES  # noqa: E402
+
+#: Fraction of full scale at which a chart picked in the explorer puts its brightest 0.5 % (asked: 50-90 %).
+CHART_EXPOSURE = 0.8
+
+
 def demosaic_methods():
     """Demosaicing methods the engine offers (its ``METHODS`` if published)."""
     from camsim_core import demosaicing
@@ -92,8 +98,9 @@ class ServerLimits:
     max_uploads : int
         Uploaded scenes a session keeps (the oldest is dropped), default 3.
     max_chart_values : int
-        Largest test chart a session may ask for, pixels x wavelengths, default 16.3 million
-        (a 724 x 724 x 31 chart; the shipped charts are at most 512 x 512).
+        Largest test chart a session may ask for, pixels x wavelengths, default 47.8 million: the
+        default camera's whole 1012 x 1524 frame at 31 wavelengths (a chart picked in the explorer is
+        sized to the frame, :meth:`ExplorerState.fit_chart`; the shipped charts are at most 512 x 512).
     max_view_side : int
         Most pixels along either side of the image an image view sends the browser, default 1280:
         a larger result is shown by block means of its pixels, and zooming in fetches the region
@@ -107,7 +114,7 @@ class ServerLimits:
     max_json_bytes: int = 64 * 1024
     max_json_depth: int = 4
     max_uploads: int = 3
-    max_chart_values: int = 724 * 724 * 31
+    max_chart_values: int = 1012 * 1524 * 31
     max_view_side: int = 1280
 
 
@@ -337,7 +344,14 @@ class ExplorerState(param.Parameterized):
                     self._updating = False
         if "mosaic" in names and self.mosaic == "custom" and self.result is not None:
             self._start_custom_tile()
+        fit = "scene" in names and self.scene in _CHART_NAMES and not getattr(self, "_exact_chart", False)
+        fitted = self.fit_chart() if fit else ""  # issue 37: a chart picked in the scene list fills the frame
+        refused = self.message if fit and not fitted else ""
         self.recompute()
+        if fitted:
+            self.notice = fitted  # (computing the result resets the notice)
+        elif refused and not self.message:
+            self.message = refused
 
     def _start_custom_tile(self):
         """A custom tile the camera cannot use (refused, or not sampling every sensor) starts from the
@@ -602,9 +616,16 @@ class ExplorerState(param.Parameterized):
             return False
         try:
             base, opts = parse_chart(text.replace(";", ","))
-            fixed = sorted(set(opts) & {"wavelengths", "angular_resolution"})
+            fixed = sorted(set(opts) & {"wavelengths"})
             if fixed:
                 raise ParameterError("chart", f"the explorer's charts keep their {' and '.join(fixed)}")
+            if "angular_resolution" in opts:  # a chart fitted to the frame names its sampling (see fit_chart)
+                from camsim_core.camera.camera import ANGULAR_RESOLUTION_RANGE
+
+                lo, hi = ANGULAR_RESOLUTION_RANGE
+                ar = opts["angular_resolution"]
+                if isinstance(ar, bool) or not isinstance(ar, (int, float)) or not lo <= ar <= hi:
+                    raise ParameterError("angular_resolution", f"must be {lo:g} to {hi:g} pixels per degree, got {ar!r}")
             key = chart_name(base, opts)
             scene = None
             if opts and key not in self._uploads:
@@ -615,8 +636,58 @@ class ExplorerState(param.Parameterized):
         if scene is not None:
             self.add_scene(key, scene, select=select)
         elif select:
-            self.scene = key
+            self._exact_chart = True  # the options' chart as they say (empty: its defaults), not fitted to the frame
+            try:
+                self.scene = key
+            finally:
+                self._exact_chart = False
         return True
+
+    def fit_chart(self, name=None):
+        """Make test chart ``name`` (default: the scene) fill the camera's frame at the current distance,
+        select it and expose it. Returns the notice saying so, or "" (and ``message`` says why not).
+
+        The chart is sized and sampled by
+        :func:`~camsim_core.scene.charts.fitted_chart_options` (each side
+        :data:`~camsim_core.scene.charts.FRAME_FILL` of the frame; the edge and
+        the zone plate one sample per camera pixel: on the default camera 860 x
+        1295 x 31 values, 276 MB), at most ``LIMITS.max_chart_values`` values
+        (coarser samples beyond), and kept under the name that makes
+        it again (links, files, the report). The exposure puts the chart's
+        brightest 0.5 % at :data:`CHART_EXPOSURE` of full scale (the default
+        charts at 3.32 m were 39 x 39 pixels at 1 % of full scale). Picking a
+        chart in the scene list calls it; a chart's options box
+        (:meth:`set_chart`) makes exactly the chart its options say.
+        """
+        from camsim_core.scene.charts import chart, chart_name, fitted_chart_options
+
+        base = str(name or self.scene).partition(":")[0]
+        try:
+            cam = self.camera_object()
+            opts = fitted_chart_options(base, (cam.height, cam.width), cam.angular_resolution, cam.distance,
+                                        max_values=LIMITS.max_chart_values)
+            key = chart_name(base, opts)
+            scene = self._uploads.get(key) or chart(key, max_values=LIMITS.max_chart_values)
+            value = float(cc.auto_exposure(scale_light(scene, self.light), cam, target=CHART_EXPOSURE))
+        except CamsimError as exc:
+            self.message = f"Chart {base} kept at its default size: {exc}"
+            return ""
+        lo, hi = self.param.exposure.bounds
+        updating, self._updating = self._updating, True
+        try:
+            self.add_scene(key, scene)
+            self.exposure = float(np.clip(value, lo, hi))
+        finally:
+            self._updating = updating
+        limited = "" if lo <= value <= hi else f" ({value:.4g} s is outside {lo:g}-{hi:g} s: limited)"
+        h, w = scene.data.shape[:2]
+        ar = opts["angular_resolution"]
+        cover = (min(1.0, h * cam.angular_resolution[1] / ar / cam.height), min(1.0, w * cam.angular_resolution[0] / ar / cam.width))
+        self.notice = (f"Chart sized to the frame: {h} x {w} samples at {ar:g} px/deg, {cam.distance:g} m away, "
+                       f"cover {cover[0]:.0%} x {cover[1]:.0%} of the camera's {cam.height} x {cam.width} "
+                       f"pixels; exposure {self.exposure:.4g} s puts its brightest 0.5 % at "
+                       f"{CHART_EXPOSURE:.0%} of full scale{limited}.")
+        return self.notice
 
     def add_scene(self, key, scene, select=True):
         """Offer ``scene`` (a Scene object) under ``key`` in this session and select it (``select``).

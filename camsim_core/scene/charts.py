@@ -24,7 +24,7 @@ from .scene import WAVELENGTH_RANGE, Scene
 from .synthetic import DEFAULT_WAVELENGTHS, _illuminant, scale_to_luminance
 
 __all__ = ["slanted_edge_scene", "zone_plate_scene", "uniform_scene", "munsell_scene", "chart", "parse_chart", "chart_name", "chart_shape", "chart_defaults",
-           "MAX_CHART_VALUES", "MAX_OPTION_CHARS", "MAX_LUMINANCE", "CHART_NAMES",
+           "MAX_CHART_VALUES", "MAX_OPTION_CHARS", "MAX_LUMINANCE", "CHART_NAMES", "fitted_chart_options", "FRAME_FILL",
            "CHART_ANGULAR_RESOLUTION"]
 
 #: Default chart sampling, px/deg: 4 x the DCS-200's 102.6.
@@ -414,3 +414,72 @@ def chart(name, max_values=MAX_CHART_VALUES, **options):
     _check_values(h, w, planes, max_values, "a chart may have here")
     _, fn, options, _ = _generator(name, options)
     return fn(**options)
+
+
+#: Share of a camera's frame (each side) that :func:`fitted_chart_options` makes a chart cover.
+FRAME_FILL = 0.85
+
+
+def _tidy(v):
+    """``v`` as :func:`chart_name` writes it (6 significant digits): the chart a name makes is the one fitted."""
+    return float(f"{v:g}")
+
+
+def fitted_chart_options(name, frame, angular_resolution, distance, *, fill=FRAME_FILL, max_values=None, **given):
+    """Options that make chart ``name`` cover ``fill`` of a camera's frame, seen from ``distance`` m.
+
+    ``frame`` is the camera's (height, width) in pixels, ``angular_resolution``
+    its (x, y) pixels per degree; ``given`` the options a user chose (kept).
+    The chart is placed at the camera's distance (so it is seen at its own
+    sampling) and sampled so that its larger side relative to the frame spans
+    ``fill`` of it:
+
+    * slanted edge and zone plate: at the camera's own angular resolution
+      (one chart sample per pixel: the camera, not the chart's sampling, is
+      what the edge measures, and the zone plate's samples reach the camera's
+      Nyquist), ``size`` the frame's; the zone plate's ``max_frequency`` such
+      that its corners reach 0.5 cycles per sample and nothing in the chart is
+      above its own Nyquist (aliasing in the chart itself);
+    * uniform field: 8 x coarser (a flat field interpolates to itself): few values;
+    * Munsell grid (and any chart of a given ``size``): its own pixels, at the
+      angular resolution that makes the side that fills first span ``fill``
+      of the frame (and more, up to the whole side, if the other then spans
+      less than 80 %: a chart of another shape than the frame).
+
+    ``max_values`` (pixels x wavelengths): a chart that would hold more is
+    sampled more coarsely (its pixels then span more than one camera pixel).
+    Returns the options (``size`` as (H, W), one ``angular_resolution``, ``distance``).
+    """
+    key, _, _, defaults = _generator(name, given)
+    h_cam, w_cam = (int(v) for v in frame)
+    phi_x, phi_y = (float(v) for v in np.broadcast_to(np.asarray(angular_resolution, float), (2,)))
+    fill = _real("fill", fill, "a fraction of the frame")
+    if not 0 < fill <= 1:
+        raise ParameterError("fill", f"must lie in (0, 1], got {fill!r}")
+    out = dict(given)
+    out["distance"] = _tidy(_real("distance", distance, "a distance in metres"))
+    planes = _wavelengths(given.get("wavelengths", defaults.get("wavelengths", DEFAULT_WAVELENGTHS))).size
+    if key == "munsell" or "size" in given:
+        h, w, _ = chart_shape(key, **given)
+        sides = np.array([h / (h_cam * phi_x / phi_y), w / w_cam])  # chart pixels per camera pixel at a full side
+        # the axis the chart fills first at ``fill``; if the other then spans less than 80 %, as much more as
+        # takes it there without the first leaving the frame
+        ratio = sides.max() / fill
+        if sides.min() / ratio < 0.81:  # (0.81: 80 % after the rounding of the name and of the resampling)
+            ratio = max(sides.max(), sides.min() / 0.81)
+        out["angular_resolution"] = _tidy(phi_x * ratio)
+        return out
+    step = 8.0 if key == "uniform" else 1.0
+    if max_values is not None:
+        needed = (fill * h_cam) * (fill * w_cam) * planes / step**2
+        if needed > max_values:
+            step *= math.sqrt(needed / max_values) * 1.001  # (and the sizes rounded down: within max_values)
+    phi = _tidy(phi_x / step)
+    h = max(8, int(fill * h_cam * phi / phi_y))
+    w = max(8, int(fill * w_cam * phi / phi_x))
+    out.update(size=(h, w), angular_resolution=phi)
+    if key == "zone-plate" and "max_frequency" not in given:
+        # local frequency k r, k = max_frequency / (min(h, w) / 2): 0.5 at the farthest corner
+        corner = math.hypot((h - 1) / 2, (w - 1) / 2)
+        out["max_frequency"] = math.floor(0.5 * (min(h, w) / 2) / corner * 1e6) / 1e6
+    return out
