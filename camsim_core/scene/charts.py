@@ -188,8 +188,13 @@ def edge_coverage(shape, angle, offset=0.0, samples=32):
     ys = (np.arange(h * samples) + 0.5) / samples  # sub-row centres
     x_line = w / 2 + offset + (ys - h / 2) * t  # x of the edge at each sub-row
     cols = np.arange(w)
-    frac = np.clip(x_line[:, None] - cols[None, :], 0.0, 1.0)  # area left of the line within [c, c+1]
-    return frac.reshape(h, samples, w).mean(axis=1)
+    out = np.empty((h, w))
+    rows = max(1, 2**20 // max(1, samples * w))  # blocks of rows: a frame-sized chart's sub-rows would take 285 MB
+    for r0 in range(0, h, rows):
+        r1 = min(h, r0 + rows)
+        frac = np.clip(x_line[r0 * samples : r1 * samples, None] - cols[None, :], 0.0, 1.0)  # area left of the line
+        out[r0:r1] = frac.reshape(r1 - r0, samples, w).mean(axis=1)
+    return out
 
 
 def slanted_edge_scene(size=512, *, angle=5.0, contrast=4.0, light=0.8, illuminant="D65", luminance=100.0,
