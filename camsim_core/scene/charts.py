@@ -171,8 +171,12 @@ def _check_values(h, w, planes, limit=MAX_SCENE_VALUES, what="a scene may have")
 
 
 def _grey_scene(refl, w, spd, e, name, comments, distance, angular_resolution):
-    """A scene of spectrally flat reflectances ``refl`` (H, W) under radiance-per-band ``e``."""
-    data = refl[:, :, None] * e[None, None, :]
+    """A scene of spectrally flat reflectances ``refl`` (H, W) under radiance-per-band ``e``.
+
+    The radiance is float32, as the shipped scenes' (every stage then runs in single precision): a chart
+    that fills the default camera's frame holds 34.5 M values, 138 MB instead of 276 MB per session.
+    """
+    data = np.asarray(refl, np.float32)[:, :, None] * np.asarray(e, np.float32)[None, None, :]
     return Scene(data, w, distance, angular_resolution, "W/sr/m^2 per band", Spectrum(w, e, spd.name), name, comments)
 
 
