@@ -94,9 +94,11 @@ def test_ab_difference_against_the_ideal_design(compared, engine):
     state, view = compared
     status = json.loads(view.status.object)
     assert status["ab"]["a"] == "DCS-200" and status["ab"]["b"] == "cones"
-    # cones render the ideal image: the A/B map is DCS-200's own error map (to the float32 scene's rounding)
-    assert status["ab"]["mean"] == pytest.approx(engine["DCS-200"].measures["cielab"]["mean"], rel=1e-6)
-    assert status["ab"]["a_wins"] == 0.0
+    # the cones render the scene's ideal image up to their own quantization: the A/B map is DCS-200's error map
+    # within the cones' (dE*ab is a distance: the triangle inequality, pixel by pixel and so for the means)
+    dcs, cones = (engine[k].measures["cielab"]["mean"] for k in ("DCS-200", "cones"))
+    assert abs(status["ab"]["mean"] - dcs) <= cones < 0.1 * dcs
+    assert status["ab"]["a_wins"] < 0.01
 
 
 def test_sweep_points_equal_the_engine_and_a_click_loads_one(compared):
