@@ -431,7 +431,9 @@ def test_chart_options_make_the_chart_a_link_reproduces_and_bad_ones_are_refused
     options = page.page.locator(".w-chart input").first
     assert not options.is_visible()  # a photo has no chart options
     page.select("w-scene", "slanted-edge")
-    page.wait_for(lambda s: s["params"]["scene"] == "slanted-edge")
+    fitted = page.wait_for(lambda s: s["params"]["scene"].startswith("slanted-edge:") and not s["computing"])
+    h, w = fitted["shape"]  # the camera image covers the chart: at least 80 % of the DCS-200's 1012 x 1524 frame
+    assert h >= 0.8 * 1012 and w >= 0.8 * 1524, fitted["shape"]
     assert options.is_visible() and "angle=5.0" in options.get_attribute("placeholder")
     options.fill("angle=10, contrast=2, size=96")
     options.press("Enter")

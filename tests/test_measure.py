@@ -29,7 +29,7 @@ def test_bayer_demosaic_lowers_red_mtf_below_green():
 
 def test_cli_measure_snr_json(tmp_path, capsys):
     out = tmp_path / "snr.json"
-    assert main(["measure", "--scene", "uniform", "--noise-sigma", "2", "--json", str(out)]) == 0
+    assert main(["measure", "--scene", "uniform:size=1024", "--noise-sigma", "2", "--json", str(out)]) == 0
     rep = json.loads(out.read_text())
     for name in "RGB":
         ch = rep["snr"]["channels"][name]
