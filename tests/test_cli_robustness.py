@@ -271,7 +271,7 @@ from collections import Counter
 from camsim_core.datasets import SIMTOOLBOX
 
 CLI_FULL = os.environ.get("CAMSIM_FULL_FUZZ") == "1"
-CLI_RUNS = 600 if CLI_FULL else 150
+CLI_RUNS = 600 if CLI_FULL else 60
 BAD_NUMBERS = ["nan", "inf", "-inf", "-1", "0", "-0", "1e308", "-1e308", "2.5", "0.5", "1e9", "1e-308", "abc", "",
                "1e400", "0x10", "--", "-5e-324", "1,2"]
 _NUMBER = re.compile(r"(?<![\w.])[-+]?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?(?![\w.])")

@@ -203,7 +203,7 @@ def test_reader_fuzz(sources, tmp_path, capsys):
         assert c["error"] > 0, f"{f}: no mutation was refused: the fuzzer does not reach the checks"
 
 
-UPLOAD_COUNT = 1500 if FULL else 30
+UPLOAD_COUNT = 1500 if FULL else 15
 
 
 @pytest.mark.parametrize("fmt", ["mat5", "mat73", "zip"])
