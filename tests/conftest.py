@@ -28,3 +28,21 @@ def dcs200_ir():
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+@pytest.fixture(scope="module")
+def browser():
+    """Debian's Chromium driven by Playwright, one per test module (files that need other launch options
+    define their own ``browser``)."""
+    from app_helpers import CHROMIUM_ARGS, chromium_path
+
+    try:
+        path = chromium_path()
+    except RuntimeError as exc:
+        pytest.fail(str(exc))
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
+        yield b
+        b.close()

@@ -21,7 +21,7 @@ import pytest
 import scipy.io
 from PIL import Image
 
-from app_helpers import ARTIFACTS, CHROMIUM_ARGS, Page, chromium_path, explorer_server
+from app_helpers import ARTIFACTS, Page, explorer_server
 
 pytestmark = pytest.mark.browser
 
@@ -70,20 +70,6 @@ def malformed_files(folder):
     for name, data in out.items():
         (folder / name).write_bytes(data)
     return out
-
-
-@pytest.fixture(scope="module")
-def browser():
-    try:
-        path = chromium_path()
-    except RuntimeError as exc:
-        pytest.fail(str(exc))
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
-        yield b
-        b.close()
 
 
 def test_malformed_uploads_and_chart_links_give_a_message_and_no_traceback(browser, tmp_path):

@@ -28,7 +28,8 @@ import psutil
 import pytest
 import scipy.io
 
-from app_helpers import ARTIFACTS, CHROMIUM_ARGS, Page, chromium_path, explorer_server
+from app_helpers import ARTIFACTS, Page, explorer_server
+from test_server_load import _NOTE_RESULTS, _type_noise
 
 pytestmark = [
     pytest.mark.browser,
@@ -38,19 +39,6 @@ pytestmark = [
 ]
 
 IDLE_S = 2.0
-
-_NOTE_RESULTS = """host => {
-  const root = host.shadowRoot || host;
-  window.camsimShown = [];
-  new MutationObserver(() => {
-    const pre = root.querySelector('pre');
-    try {
-      const s = JSON.parse(pre.textContent);
-      if (s.params && !s.computing) window.camsimShown.push([performance.now(), s.params.noise_sigma]);
-    } catch (e) {}
-  }).observe(root, {childList: true, characterData: true, subtree: true});
-  return true;
-}"""
 
 
 def hostile_files(folder):
@@ -87,28 +75,6 @@ def hostile_files(folder):
     (folder / "zipbomb.zip").write_bytes(z.getvalue())
     out.append(("zipbomb.zip", "more than"))
     return out
-
-
-@pytest.fixture(scope="module")
-def browser():
-    try:
-        path = chromium_path()
-    except RuntimeError as exc:
-        pytest.fail(str(exc))
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
-        yield b
-        b.close()
-
-
-def _type_noise(pg, value):
-    box = pg.page.locator(".w-noise input").first
-    box.fill(str(value))
-    sent = pg.page.evaluate("performance.now()")
-    box.press("Enter")
-    return sent
 
 
 def _rss_mb(ps):
