@@ -5,7 +5,7 @@ the dE. Playwright drives the system Chromium against ``camsim serve`` on 127.0.
 
 import pytest
 
-from app_helpers import ARTIFACTS, CHROMIUM_ARGS, Page, chromium_path, explorer_server, server_log
+from app_helpers import ARTIFACTS, Page, explorer_server, server_log
 
 pytestmark = pytest.mark.browser
 
@@ -18,20 +18,6 @@ def server():
     ARTIFACTS.mkdir(exist_ok=True)
     with explorer_server() as url:
         yield url
-
-
-@pytest.fixture(scope="module")
-def browser():
-    try:
-        path = chromium_path()
-    except RuntimeError as exc:
-        pytest.fail(str(exc))
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
-        yield b
-        b.close()
 
 
 @pytest.fixture

@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from app_helpers import ARTIFACTS, CHROMIUM_ARGS, TIMEOUT, Page, chromium_path, explorer_server, server_log
+from app_helpers import ARTIFACTS, TIMEOUT, Page, explorer_server, server_log
 
 pytestmark = pytest.mark.browser
 
@@ -47,20 +47,6 @@ SET_SEARCH_JS = """(search) => {
   }
   return false;
 }"""
-
-
-@pytest.fixture(scope="module")
-def browser():
-    try:
-        path = chromium_path()
-    except RuntimeError as exc:
-        pytest.fail(str(exc))
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
-        yield b
-        b.close()
 
 
 def _rss(pid):

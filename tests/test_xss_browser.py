@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 import scipy.io
 
-from app_helpers import ARTIFACTS, CHROMIUM_ARGS, TIMEOUT, chromium_path, explorer_server
+from app_helpers import ARTIFACTS, TIMEOUT, explorer_server
 from app.state import COMPARE_PARAMETERS, URL_PARAMETERS
 
 pytestmark = pytest.mark.browser
@@ -99,20 +99,6 @@ def server():
     ARTIFACTS.mkdir(exist_ok=True)
     with explorer_server() as url:
         yield url
-
-
-@pytest.fixture(scope="module")
-def browser():
-    try:
-        path = chromium_path()
-    except RuntimeError as exc:
-        pytest.fail(str(exc))
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
-        yield b
-        b.close()
 
 
 class Tab:
