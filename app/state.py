@@ -14,7 +14,10 @@ one camera's widgets over another camera's images.
 In the server each session computes in a background thread of its own
 (:class:`Runner`): the Tornado event loop stays free for other sessions, and a
 change made while a result is being computed supersedes the queued ones (only
-the newest parameters are computed). ``computing`` is True meanwhile, so the
+the newest parameters are computed). The sessions of a whole class share the
+server's cores through :data:`COMPUTE_SLOTS` (one computing thread per core,
+taken in turn, at :data:`COMPUTE_NICE`), so the event loop's thread is never
+one of ten threads competing for two cores. ``computing`` is True meanwhile, so the
 page can show that its results are out of date.
 """
 
@@ -23,6 +26,7 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import os
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -778,6 +782,17 @@ _WARM = {}
 _WARM_SCENES = 2
 
 
+#: Sessions computing at once in the whole server: one per core. A class's changes arriving together queue
+#: here (in arrival order) instead of running as a thread each: ten threads sharing two cores all finish late,
+#: and they starve the event loop of the GIL (each of its callbacks then waits behind ten threads).
+COMPUTE_SLOT_COUNT = max(1, os.cpu_count() or 1)
+COMPUTE_SLOTS = threading.BoundedSemaphore(COMPUTE_SLOT_COUNT)
+
+#: Niceness of a session's computing thread (Linux sets it per thread): the event loop's thread wins a core
+#: from it at once, and a sweep's or a pin's thread (``camsim_core._parallel.BACKGROUND_NICE``) loses to it.
+COMPUTE_NICE = 5
+
+
 class Runner:
     """Computes a session's results in one background thread; only the newest request is computed.
 
@@ -804,13 +819,18 @@ class Runner:
         threading.Thread(target=self._loop, name="camsim-session", daemon=True).start()
 
     def _loop(self):
+        try:  # below the event loop's thread: it serves every page, and its callbacks are short
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), COMPUTE_NICE)
+        except (AttributeError, OSError):  # not Linux: the slots still hold
+            pass
         while True:
-            with self._lock:
-                job, self._pending = self._pending, None
-                if job is None:
-                    self.busy = False
-                    return
-            outcome = self._compute(job)
+            with COMPUTE_SLOTS:  # the newest job is taken once a slot is free: a burst waits as one job
+                with self._lock:
+                    job, self._pending = self._pending, None
+                    if job is None:
+                        self.busy = False
+                        return
+                outcome = self._compute(job)
             with self._lock:
                 superseded = self._pending is not None
             if not superseded:

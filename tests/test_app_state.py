@@ -251,6 +251,32 @@ def test_runner_computes_only_the_newest_request():
     assert delivered == [(3, 30)]  # 1's outcome was obsolete when it finished
 
 
+def test_sessions_compute_at_most_one_per_core_at_once_and_each_gets_its_result():
+    """Ten sessions changing at once queue for the server's cores (``COMPUTE_SLOTS``) instead of running ten
+    threads on two cores, and each still gets its own newest result."""
+    from app.state import COMPUTE_SLOT_COUNT as slots
+    lock, running, most = threading.Lock(), [0], [0]
+    delivered = []
+
+    def compute(job):
+        with lock:
+            running[0] += 1
+            most[0] = max(most[0], running[0])
+        time.sleep(0.05)
+        with lock:
+            running[0] -= 1
+        return job
+
+    runners = [Runner(compute, lambda job, out: delivered.append(out)) for _ in range(slots + 4)]
+    for k, runner in enumerate(runners):
+        runner.submit(k)
+    deadline = time.monotonic() + 30
+    while any(r.busy for r in runners) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert sorted(delivered) == list(range(len(runners)))
+    assert most[0] == slots
+
+
 def _background_state():
     state = ExplorerState(start=False)
     state.set_runner(Runner(state._compute, state._apply))  # deliver in the worker: no event loop here
