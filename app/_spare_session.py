@@ -33,6 +33,8 @@ import logging
 import time
 import weakref
 
+from . import _build_off_loop
+
 __all__ = ["install", "prepare_at_start", "SPARE_DELAY_S"]
 
 #: Seconds after the last page served has connected (its scripts loaded, its document pulled) before a spare
@@ -60,7 +62,7 @@ def _busy():
     """A session computing a result: a build now would hold its result back on the event loop."""
     from . import main
 
-    return any(getattr(s, "computing", False) for s in list(main.LIVE_STATES))
+    return any(getattr(s, "computing", False) for s in main.live_states())
 
 
 def _plain_request(request):
@@ -91,12 +93,16 @@ async def _build(path):
     session_id = generate_session_id(secret_key=tornado_app.secret_key, signed=tornado_app.sign_sessions)
     token = _token(tornado_app, session_id, {"headers": {}, "cookies": {}, "arguments": {}})
     t0 = time.perf_counter()
-    before = set(main.LIVE_STATES)
-    session = await context.create_session_if_needed(session_id, request, token)
+    before = set(main.live_states())
+    speculative = _build_off_loop.SPECULATIVE.set(True)  # built at background priority when built off the loop
+    try:
+        session = await context.create_session_if_needed(session_id, request, token)
+    finally:
+        _build_off_loop.SPECULATIVE.reset(speculative)
     session.block_expiration()  # not reaped as an unused session while it waits
     _spares[path] = session
     _log.info("a spare page for %s built in %.0f ms", path, 1000 * (time.perf_counter() - t0))
-    new = [s for s in list(main.LIVE_STATES) if s not in before]
+    new = [s for s in main.live_states() if s not in before]
     if len(new) == 1:
         _serialize_when_settled(path, session, new[0])
 
@@ -113,7 +119,7 @@ def _serialize_when_settled(path, session, state):
             IOLoop.current().call_later(POLL_S, check)
             return
         _page_stylesheets(session.document)
-        _serialize_for_pull(session)
+        IOLoop.current().add_callback(_serialize_for_pull, session)
 
     IOLoop.current().call_later(POLL_S, check)
 
@@ -147,20 +153,32 @@ class _AsSerialized:
         return self._serialized
 
 
-def _serialize_for_pull(session):
-    """Serialize the session's document now; its first pull replies with that if the document has not
-    changed since (and is not holding back changes), else Bokeh serializes it anew."""
+async def _serialize_for_pull(session):
+    """Serialize the session's document now (off the event loop when pages are built off it); its first pull
+    replies with that if the document has not changed since the serialization began (and is not holding back
+    changes), else Bokeh serializes it anew."""
     if session.destroyed or session.connection_count > 0:
         return
     doc = session.document
-    serialized = doc.to_json()
     urls = _stylesheet_urls(doc)  # Panel changes these at hand-out without document events
     changed = []
 
     def on_change(event):
         changed.append(True)
 
-    doc.on_change(on_change)
+    doc.on_change(on_change)  # before the serialization starts: a change made meanwhile makes it stale
+    try:
+        if _build_off_loop.installed():
+            _build_off_loop.SPECULATIVE.set(True)  # this task's own context: for the next visitor, at low priority
+            serialized = await _build_off_loop.run_in_builder(doc.to_json)
+        else:
+            serialized = doc.to_json()
+    except Exception:  # changed under the serializer: the pull serializes it as usual
+        doc.remove_on_change(on_change)
+        return
+    if session.destroyed or session.connection_count > 0 or changed:
+        doc.remove_on_change(on_change)
+        return
     bokehs = session._handle_pull
 
     async def handle_pull(message, connection):  # as Bokeh's: a coroutine

@@ -14,10 +14,11 @@ every callback and is meant for development, not a served class.
 
 from __future__ import annotations
 
+import gc
 import logging
 import time
 
-__all__ = ["watch_event_loop", "STALLS", "TICK_S"]
+__all__ = ["watch_event_loop", "watch_garbage_collection", "STALLS", "TICK_S"]
 
 #: How often the loop is looked at, seconds.
 TICK_S = 0.02
@@ -49,3 +50,21 @@ def watch_event_loop(loop, threshold_ms=100.0, log=_LOG):
             state["handle"].cancel()
 
     return stop
+
+
+def watch_garbage_collection(threshold_ms=100.0, log=_LOG):
+    """Log every garbage collection longer than ``threshold_ms`` (it holds every thread, the loop's too: with
+    ten sessions open a full collection took 60-180 ms); returns a function that stops the watch."""
+    started = [0.0]
+
+    def on_gc(phase, info):
+        if phase == "start":
+            started[0] = time.perf_counter()
+            return
+        took = 1000.0 * (time.perf_counter() - started[0])
+        if took > threshold_ms:
+            log.warning("garbage collection (generation %d, %d objects freed) took %.0f ms",
+                        info["generation"], info["collected"], took)
+
+    gc.callbacks.append(on_gc)
+    return lambda: gc.callbacks.remove(on_gc)

@@ -38,12 +38,19 @@ from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, ExplorerSta
 from .upload import BoundedUpload
 from .views import CameraView, ResultsView, SceneView, Text, _after, once, when_page_ready
 
-__all__ = ["create_app", "DEFAULT_SCENE", "configure", "LIVE_STATES", "TABS"]
+__all__ = ["create_app", "DEFAULT_SCENE", "configure", "LIVE_STATES", "live_states", "TABS"]
 
 DEFAULT_SCENE = "cacaphony290"
 _options = {"scene": None, "upload": True}
 #: Every session's state while it lives (weak: a closed session's state must be freed).
 LIVE_STATES = weakref.WeakSet()
+_LIVE_LOCK = threading.Lock()  # pages are built in a thread (app._build_off_loop) while the loop looks at them
+
+
+def live_states():
+    """The sessions' states alive now (a list: safe while a page is being built in another thread)."""
+    with _LIVE_LOCK:
+        return list(LIVE_STATES)
 #: Called after a closed session is released (``camsim serve`` gives freed memory back to the system here).
 AFTER_RELEASE = []
 
@@ -603,7 +610,8 @@ def create_app(scene=None):
     """One session's page (a fresh state: nothing is shared between sessions but read-only data)."""
     pn.extension(notifications=False, raw_css=[_PRESENT_CSS])
     state = _new_state(scene)
-    LIVE_STATES.add(state)
+    with _LIVE_LOCK:
+        LIVE_STATES.add(state)
     _go_background(state)
     state.recompute()  # in the background in a server: the page shows at once, marked as computing
     if pn.state.location is not None:

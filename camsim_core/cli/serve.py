@@ -20,6 +20,10 @@ __all__ = ["register", "run", "WEBSOCKET_MAX_MESSAGE_BYTES"]
 
 #: Largest websocket message the server accepts (Bokeh's default, set explicitly): uploads travel in 1 MiB pieces.
 WEBSOCKET_MAX_MESSAGE_BYTES = 20 * 2**20
+#: The server's GIL switch interval (s; CPython's default is 0.005). The event loop's callbacks give up the GIL
+#: at every socket write, lock and numpy call, and each time wait for a computing thread to hand it back: at
+#: 5 ms a wait, a result's 8 ms of Python took 50-220 ms on the loop while two sessions computed.
+GIL_SWITCH_S = 0.0005
 
 
 def _positive_int(text):
@@ -337,6 +341,9 @@ def run(args):
 
         start_upload_readers()
     _freeze_startup_objects()
+    from app import _build_off_loop  # pages built in a thread: the event loop serves the others meanwhile
+
+    _build_off_loop.install()
     if not args.no_spare_page:
         from app import _spare_session
 
@@ -354,9 +361,11 @@ def run(args):
              transforms=[ContentSecurityPolicy])
     refuse_other_hosts(server._tornado, origins)  # before the server takes its first request
     server.start()
-    from app.loop_watch import watch_event_loop  # a line in the log for every stall of the event loop over 100 ms
+    from app.loop_watch import watch_event_loop, watch_garbage_collection
 
-    watch_event_loop(server.io_loop.asyncio_loop)
+    watch_event_loop(server.io_loop.asyncio_loop)  # a line in the log for every stall of the event loop over 100 ms
+    watch_garbage_collection()  # and for every garbage collection that held every thread over 100 ms
+    sys.setswitchinterval(GIL_SWITCH_S)
     try:
         server.io_loop.start()
     except RuntimeError:  # as pn.serve: a loop already running

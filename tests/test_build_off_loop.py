@@ -1,0 +1,40 @@
+"""Pages are built in a thread of their own, not on the server's event loop (app/_build_off_loop.py)."""
+
+from __future__ import annotations
+
+import re
+import time
+import urllib.request
+
+import pytest
+
+from app_helpers import ARTIFACTS, explorer_server
+
+
+def test_the_replacement_matches_the_installed_bokeh():
+    """Fails when an upgrade of Bokeh changes the method the replacement mirrors: pages would then be built on
+    the event loop again (the server only logs a warning)."""
+    from bokeh.server.contexts import ApplicationContext
+
+    from app import _build_off_loop
+
+    assert _build_off_loop._digest(ApplicationContext.create_session_if_needed) == _build_off_loop.BOKEH_SOURCE_SHA256
+    assert _build_off_loop.install()
+    assert ApplicationContext.create_session_if_needed.original is not None
+
+
+@pytest.mark.slow
+def test_a_served_page_is_built_in_the_builder_thread():
+    ARTIFACTS.mkdir(exist_ok=True)
+    with explorer_server(extra_args=["--no-spare-page"]) as url:
+        for _ in range(2):
+            page = urllib.request.urlopen(url + "?noise_sigma=2", timeout=90).read().decode()
+            assert '"token":"' in page
+        log_path = ARTIFACTS / f"server-{url.rsplit(':', 1)[1].strip('/')}.log"
+        deadline = time.monotonic() + 30
+        while True:
+            builds = re.findall(r"a page built in \d+ ms in thread (\S+)", log_path.read_text(errors="replace"))
+            if len(builds) >= 2 or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
+    assert builds and all(name.startswith("camsim-build_") for name in builds), builds
