@@ -28,14 +28,16 @@ def _in_thread(fn):
 def test_background_blocks_run_in_the_calling_thread_at_lower_priority():
     def work():
         seen = []
+        before = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
         with background():
             run_blocks(lambda a, b: seen.append(threading.get_ident()), [0, 10, 20, 30], values=10**9)
             nice = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
-        return seen, threading.get_ident(), nice
+        return seen, threading.get_ident(), before, nice
 
-    seen, me, nice = _in_thread(work)
+    seen, me, before, nice = _in_thread(work)
     assert seen == [me] * 3  # no block went to the shared pool
-    assert nice == os.getpriority(os.PRIO_PROCESS, 0) + BACKGROUND_NICE or nice == 19
+    # set to BACKGROUND_NICE (absolute); a thread already nicer than that may stay so (lowering needs privilege)
+    assert nice == BACKGROUND_NICE or nice == before > BACKGROUND_NICE
 
 
 def test_outside_background_large_work_uses_the_pool():
@@ -81,5 +83,5 @@ def test_a_sweep_computes_its_points_as_background_work(monkeypatch):
     base = os.getpriority(os.PRIO_PROCESS, 0)
     points = sweep.run_sweep([("a", {"camera": "kodak-dcs200"})], "noise_sigma", [0.0, 2.0])
     assert len(points) == 2 and all(p.error == "stop here" for p in points)
-    assert seen and all(depth == 1 and nice >= min(19, base + BACKGROUND_NICE) for depth, nice in seen)
+    assert seen and all(depth == 1 and nice >= BACKGROUND_NICE for depth, nice in seen)
     assert os.getpriority(os.PRIO_PROCESS, 0) == base  # the caller's own thread keeps its priority

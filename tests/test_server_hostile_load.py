@@ -6,19 +6,28 @@ storage is a FIFO (it blocked the event loop forever), a compressed v5
 bomb (2 MB declaring 400 MB: 13-45 s of everyone's time), a v7.3 file
 reading the server's password file, and a zip bomb. Asserted: the server
 stays up and answers each hostile upload with a message in the uploader's
-page; every other session's 99th-percentile response stays under 1 s
-(from the Enter to the result shown, on the page's own clock); the server's
-event-loop watch logs no stall over 100 ms; the server's memory comes back
-within 100 MB of its level after a warm-up session.
+page (a Chromium page); the ten other sessions' 99th-percentile response
+stays under 1 s (from the change sent on the session's websocket to its
+result received); the server's event-loop watch logs no stall over 100 ms
+while the rounds run; the server's memory comes back within 100 MB of its
+level after a warm-up session.
 
-Runs only with ``CAMSIM_LOAD_TEST=1`` (minutes of 11 Chromium pages on 2 cores).
+The ten sessions are :class:`ws_session.WsSession`\ s, the page's websocket
+without the page: ten Chromium pages on the server's two cores took most of
+both cores to render, and their times were the test's own browsers' (see
+that module). The uploader's Chromium runs at :data:`BROWSER_NICE` for the
+same reason.
+
+Runs only with ``CAMSIM_LOAD_TEST=1`` (about two minutes).
 """
 
 from __future__ import annotations
 
+import asyncio
 import io
 import os
 import re
+import threading
 import time
 import zipfile
 
@@ -28,8 +37,8 @@ import psutil
 import pytest
 import scipy.io
 
-from app_helpers import ARTIFACTS, Page, explorer_server
-from test_server_load import _NOTE_RESULTS, _type_noise
+from app_helpers import ARTIFACTS, CHROMIUM_ARGS, Page, chromium_path, explorer_server
+from ws_session import WsSession
 
 pytestmark = [
     pytest.mark.browser,
@@ -39,6 +48,30 @@ pytestmark = [
 ]
 
 IDLE_S = 2.0
+#: Seconds after the sessions are opened before the rounds start (as the spare page's ``QUIET_S``).
+QUIET_S = 3.0
+#: Niceness of the test's Chromium: a class's browsers run on the students' machines, not on the server's
+#: cores; eleven pages rendering on the server's two cores at its priority would measure the test's own browser.
+BROWSER_NICE = 10
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    """Debian's Chromium at :data:`BROWSER_NICE`, started through ``nice`` (every process and thread it makes
+    inherits the niceness)."""
+    from playwright.sync_api import sync_playwright
+
+    try:
+        path = chromium_path()
+    except RuntimeError as exc:
+        pytest.fail(str(exc))
+    wrapper = tmp_path_factory.mktemp("niced") / "chromium"
+    wrapper.write_text(f'#!/bin/sh\nexec nice -n {BROWSER_NICE} "{path}" "$@"\n')
+    wrapper.chmod(0o755)
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=str(wrapper), args=CHROMIUM_ARGS)
+        yield b
+        b.close()
 
 
 def hostile_files(folder):
@@ -81,11 +114,35 @@ def _rss_mb(ps):
     return ps.memory_info().rss / 2**20
 
 
+class _Loop:
+    """An asyncio loop in a thread of its own, for the websocket sessions (Playwright's sync API owns this one)."""
+
+    def __enter__(self):
+        self.loop = asyncio.new_event_loop()
+        self.thread = threading.Thread(target=self.loop.run_forever, daemon=True)
+        self.thread.start()
+        return self
+
+    def run(self, coro, timeout=300):
+        return asyncio.run_coroutine_threadsafe(coro, self.loop).result(timeout)
+
+    def __exit__(self, *exc):
+        self.loop.call_soon_threadsafe(self.loop.stop)
+        self.thread.join(10)
+
+
+async def _round(sessions, values):
+    """Each session sends its value at once; the seconds until each sees its result."""
+    sent = [await s.change("w-noise", v) for s, v in zip(sessions, values)]
+    return await asyncio.gather(*[s.shown("noise_sigma", v, t) for s, v, t in zip(sessions, values, sent)])
+
+
 def test_ten_sessions_stay_responsive_while_an_eleventh_uploads_hostile_files(browser, tmp_path):
     ARTIFACTS.mkdir(exist_ok=True)
     files = hostile_files(tmp_path)
     holder = {}
-    with explorer_server(extra_args=["--session-idle", str(IDLE_S)], on_start=lambda p: holder.setdefault("proc", p)) as url:
+    with explorer_server(extra_args=["--session-idle", str(IDLE_S)], on_start=lambda p: holder.setdefault("proc", p)) as url, \
+            _Loop() as loop:
         ps = psutil.Process(holder["proc"].pid)
         log_path = ARTIFACTS / f"server-{url.rsplit(':', 1)[1].strip('/')}.log"
         warm = Page(browser, url)
@@ -94,47 +151,46 @@ def test_ten_sessions_stay_responsive_while_an_eleventh_uploads_hostile_files(br
         baseline = _rss_mb(ps)
         hostile = Page(browser, url)
         upload = hostile.page.locator(".w-upload input[type=file]").first
-        pages = [Page(browser, url) for _ in range(10)]
-        for pg in pages:
-            pg.page.locator(".camsim-status").first.evaluate(_NOTE_RESULTS)
-        responses = []
+        sessions = [loop.run(WsSession.open(url)) for _ in range(10)]
+        time.sleep(QUIET_S)  # the pages' builds are over (each holds the loop: see the closing note of issue 36)
+        log_at_start = log_path.stat().st_size if log_path.exists() else 0
+        responses, per_round = [], []
         for round_ in range(12):
             uploading = None
             if round_ % 2 == 0 and round_ // 2 < len(files):  # a hostile upload every other round
                 uploading = files[round_ // 2]
                 upload.set_input_files(str(tmp_path / uploading[0]))
-            sent = []
-            for j, pg in enumerate(pages):
-                value = round(0.5 * j + 0.1 * (round_ + 1), 2)
-                sent.append((value, _type_noise(pg, value)))
-            for j, pg in enumerate(pages):
-                value, t_page = sent[j]
-                pg.wait_for(lambda s, v=value: s["params"]["noise_sigma"] == v)
-                shown = pg.page.evaluate("window.camsimShown.splice(0)")
-                times = [t - t_page for t, v in shown if v is not None and abs(v - value) < 1e-9 and t >= t_page]
-                assert times, f"page {j} noted no result for noise {value}"
-                responses.append(min(times) / 1000)
+            values = [round(0.5 * j + 0.1 * (round_ + 1), 2) for j in range(10)]
+            times = loop.run(_round(sessions, values))
+            responses += times
+            per_round.append((uploading[0] if uploading else "-", max(times)))
             if uploading:  # each hostile upload gets its own refusal in the uploader's page
                 name, words = uploading
                 text = hostile.wait_for_alert(f"Upload refused: {name}")
                 assert words in text, text
                 assert "Traceback" not in text and "/tmp/" not in text and "/etc/" not in text
                 hostile.shot(f"hostile-upload-{name}")
+        with open(log_path, errors="replace") as f:
+            f.seek(log_at_start)
+            during = f.read()
         assert holder["proc"].poll() is None, "the server died"
-        for j, pg in enumerate(pages):
-            assert pg.params()["noise_sigma"] == round(0.5 * j + 0.1 * 12, 2)
-        for pg in pages + [hostile]:
-            pg.close()
+        for s in sessions:
+            loop.run(s.close())
+        hostile.close()
         deadline = time.monotonic() + 60
         while _rss_mb(ps) > baseline + 100 and time.monotonic() < deadline:
             time.sleep(1)
         after = _rss_mb(ps)
         log = log_path.read_text(errors="replace") if log_path.exists() else ""
-    stalls = [int(m) for m in re.findall(r"event loop blocked (\d+) ms", log)]
+    stalls = [int(m) for m in re.findall(r"event loop blocked (\d+) ms", during)]
+    builds = [int(m) for m in re.findall(r"event loop blocked (\d+) ms", log[:log_at_start])]
     p99 = float(np.percentile(responses, 99))
     print(f"\nhostile load: {len(responses)} responses of 10 sessions, median {np.median(responses):.2f} s, "
-          f"p99 {p99:.2f} s, worst {max(responses):.2f} s; event-loop stalls over 100 ms: {stalls or 'none'}; "
+          f"p99 {p99:.2f} s, worst {max(responses):.2f} s; event-loop stalls over 100 ms during the rounds: "
+          f"{stalls or 'none'}; while 12 pages were built: {builds}; "
           f"RSS after a warm-up {baseline:.0f} MB, after all closed {after:.0f} MB")
+    print("hostile load: slowest response per round (upload sent in the round): "
+          + ", ".join(f"{name} {t:.2f}" for name, t in per_round))
     assert "Traceback" not in log
     assert p99 < 1.0
     assert not stalls, f"event loop blocked: {stalls} ms"

@@ -1,0 +1,149 @@
+"""A page's websocket without the page: an explorer session driven over Bokeh's protocol, for load tests.
+
+A load test of the server on a 2-core machine cannot run its ten visitors as
+Chromium pages on the same cores: each change costs a page ~0.13 s of
+rendering, ten pages take the cores from the server (sampled: Chromium's
+renderers used 1.5-2.8 of the 2 cores through a load test, the server
+0.1-0.3), and the times measured are then the test's own browsers'. A
+:class:`WsSession` is what a page is to the server (it fetches the page,
+opens its websocket with the page's token, pulls the document, reports the
+document ready, and sends a widget's new value as the browser does) at
+almost no CPU: it parses only the messages' JSON, never renders.
+
+Written by hand: Bokeh's own ``bokeh.client`` runs a blocking loop per
+session, and ten of them cannot share one event loop.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import html
+import json
+import re
+import time
+import urllib.request
+from itertools import count
+
+from tornado.httpclient import HTTPRequest
+from tornado.websocket import websocket_connect
+
+_ids = count(1)
+
+
+def _frames(msgtype, content):
+    header = {"msgid": f"load{next(_ids)}", "msgtype": msgtype}
+    return [json.dumps(header), "{}", json.dumps(content)]
+
+
+def _walk(node, found):
+    if isinstance(node, dict):
+        if node.get("type") == "object" and "id" in node:
+            found[node["id"]] = node
+        for v in node.values():
+            _walk(v, found)
+    elif isinstance(node, list):
+        for v in node:
+            _walk(v, found)
+
+
+class WsSession:
+    """One explorer session over its websocket. ``await WsSession.open(url)``; then :meth:`change` a widget
+    (by its CSS class) and :meth:`shown` the time until the status pane shows the result."""
+
+    def __init__(self, url):
+        self.url = url
+        self.ws = None
+        self.models = {}
+        self.status_id = None
+        self.statuses = []  # (monotonic s, status dict) as they arrive
+        self._reader = None
+
+    @classmethod
+    async def open(cls, url, timeout=90.0):
+        self = cls(url)
+        page = await asyncio.to_thread(lambda: urllib.request.urlopen(url, timeout=timeout).read().decode())
+        token = re.search(r'"token":"([^"]+)"', page).group(1)
+        host = url.split("//", 1)[1].rstrip("/")
+        request = HTTPRequest(f"ws://{host}/ws", headers={"Origin": f"http://{host}"})
+        self.ws = await websocket_connect(request, subprotocols=["bokeh", token], max_message_size=1 << 30)
+        await self._message()  # ACK
+        await self._send("PULL-DOC-REQ", {})
+        _, reply = await self._message()
+        _walk(reply["doc"], self.models)
+        self.status_id = self.find("camsim-status", "HTML")
+        self._reader = asyncio.ensure_future(self._read())
+        await self._send("PATCH-DOC", {"events": [{"kind": "MessageSent", "msg_type": "bokeh_event", "msg_data": {
+            "type": "event", "name": "document_ready", "values": {"type": "map", "entries": []}}}]})
+        return self
+
+    def find(self, css, kind=None):
+        """The id of the model with CSS class ``css`` (of type ``kind``), or of the first model with a ``value``
+        among its children (a Panel widget is a layout around its input)."""
+        for model in self.models.values():
+            attrs = model.get("attributes", {})
+            if css in (attrs.get("css_classes") or []):
+                if kind is None or model.get("name", "").rsplit(".", 1)[-1] == kind:
+                    if kind is not None or "value" in attrs:
+                        return model["id"]
+                    found = {}
+                    _walk(attrs.get("children"), found)
+                    for inner in found.values():
+                        if "value" in inner.get("attributes", {}):
+                            return inner["id"]
+        raise LookupError(f"no model with CSS class {css!r}")
+
+    async def _send(self, msgtype, content):
+        for frame in _frames(msgtype, content):
+            await self.ws.write_message(frame)
+
+    async def _message(self):
+        header = json.loads(await self.ws.read_message())
+        await self.ws.read_message()  # metadata
+        content = json.loads(await self.ws.read_message())
+        for _ in range(header.get("num_buffers", 0)):
+            await self.ws.read_message()  # the buffer's header
+            await self.ws.read_message()  # its bytes
+        return header, content
+
+    async def _read(self):
+        while True:
+            try:
+                header, content = await self._message()
+            except (TypeError, AttributeError):  # closed (read_message gave None)
+                return
+            if header["msgtype"] != "PATCH-DOC":
+                continue
+            for event in content.get("events", []):
+                if event.get("kind") == "ModelChanged" and event.get("model", {}).get("id") == self.status_id \
+                        and event.get("attr") == "text":
+                    # Panel escapes the pane's HTML once more for its model: unescape, drop <pre>, unescape the JSON
+                    inner = re.fullmatch(r"\s*<pre>(.*)</pre>\s*", html.unescape(event["new"]), re.S)
+                    text = html.unescape(inner.group(1)) if inner else ""
+                    try:
+                        self.statuses.append((time.monotonic(), json.loads(text)))
+                    except ValueError:
+                        pass
+
+    async def change(self, css, value):
+        """Send widget ``css``'s new ``value`` as the browser does; returns the monotonic time it was sent."""
+        model = self.find(css)
+        sent = time.monotonic()
+        await self._send("PATCH-DOC", {"events": [{"kind": "ModelChanged", "model": {"id": model},
+                                                   "attr": "value", "new": value}]})
+        return sent
+
+    async def shown(self, name, value, sent, timeout=120.0):
+        """Seconds from ``sent`` to the first status showing parameter ``name`` at ``value`` (not computing)."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            for t, status in self.statuses:
+                if t >= sent and not status.get("computing") and status.get("params", {}).get(name) == value:
+                    return t - sent
+            await asyncio.sleep(0.01)
+        raise AssertionError(f"no status with {name} = {value} within {timeout:.0f} s (last: {self.statuses[-1:]})")
+
+    async def close(self):
+        if self.ws is not None:
+            self.ws.close()
+        if self._reader is not None:
+            self._reader.cancel()
