@@ -1,4 +1,4 @@
-"""Test charts as hyperspectral scenes: slanted edge, zone plate, uniform field, Munsell grid.
+"""Test charts as hyperspectral scenes: slanted edge, zone plate, uniform field, Munsell grid, Macbeth chart.
 
 Every chart is a reflectance map times an illuminant (a name of
 :data:`~camsim_core.datasets.illuminants.ILLUMINANT_NAMES` or a Spectrum),
@@ -6,7 +6,9 @@ scaled so that a white reflector has ``luminance`` cd/m^2. By default the
 charts are sampled at 410.4 px/deg, four times the Kodak DCS-200's 102.6
 px/deg, so that a camera at the chart's distance sees each of its pixels
 cover 4 x 4 chart samples: the chart, not its sampling, is then what the
-camera blurs. The Macbeth chart is :func:`~camsim_core.scene.macbeth_scene`.
+camera blurs. The Macbeth chart is :func:`~camsim_core.scene.macbeth_scene`
+(:func:`macbeth_chart` takes its options by name, as the other charts': a
+chart fitted to a camera's frame is ``"macbeth:angular_resolution=...,distance=..."``).
 """
 
 from __future__ import annotations
@@ -21,15 +23,15 @@ from ..errors import ParameterError
 from ..spectra import Spectrum, resample
 from ._intake import MAX_SCENE_VALUES
 from .scene import WAVELENGTH_RANGE, Scene
-from .synthetic import DEFAULT_WAVELENGTHS, _illuminant, scale_to_luminance
+from .synthetic import DEFAULT_WAVELENGTHS, _illuminant, macbeth_scene, scale_to_luminance
 
-__all__ = ["slanted_edge_scene", "zone_plate_scene", "uniform_scene", "munsell_scene", "chart", "parse_chart", "chart_name", "chart_shape", "chart_defaults",
+__all__ = ["slanted_edge_scene", "zone_plate_scene", "uniform_scene", "munsell_scene", "macbeth_chart", "chart", "parse_chart", "chart_name", "chart_shape", "chart_defaults",
            "MAX_CHART_VALUES", "MAX_OPTION_CHARS", "MAX_LUMINANCE", "CHART_NAMES", "fitted_chart_options", "FRAME_FILL",
            "CHART_ANGULAR_RESOLUTION"]
 
 #: Default chart sampling, px/deg: 4 x the DCS-200's 102.6.
 CHART_ANGULAR_RESOLUTION = (410.4, 410.4)
-CHART_NAMES = ("slanted-edge", "zone-plate", "uniform", "munsell")
+CHART_NAMES = ("slanted-edge", "zone-plate", "uniform", "munsell", "macbeth")
 
 
 #: Longest value (characters) of one option in a chart name: numbers, sizes and illuminant names are short.
@@ -295,6 +297,27 @@ def munsell_scene(rows=4, cols=6, *, patch_size=32, border=8, chips=None, illumi
                  f"{rows} x {cols} Munsell chips {idx.tolist()}")
 
 
+def macbeth_chart(patch_size=16, border=4, *, illuminant="D65", luminance=100.0, wavelengths=DEFAULT_WAVELENGTHS,
+                  distance=1.0, angular_resolution=(57.3, 57.3)):
+    """The Macbeth ColorChecker of :func:`~camsim_core.scene.macbeth_scene` (4 x 6 patches of ``patch_size``
+    pixels, ``border`` pixels of black gaps), its options checked by name like the other charts'.
+
+    At its defaults it is the shipped ``"macbeth"`` scene (57.3 px/deg, 1 m away); ``luminance`` is the
+    white reflector's cd/m^2 (``white_luminance`` of :func:`~camsim_core.scene.macbeth_scene`).
+    """
+    patch_size = _whole("patch_size", patch_size, "a whole number of pixels >= 1", 1)
+    border = _whole("border", border, "a whole number of pixels >= 0", 0)
+    step = patch_size + border
+    w = _wavelengths(wavelengths)
+    _check_values(border + 4 * step, border + 6 * step, w.size)
+    _light(illuminant, luminance, w)  # checked here, by name
+    distance, angular_resolution = _geometry(distance, angular_resolution)
+    return macbeth_scene(illuminant if isinstance(illuminant, Spectrum) else str(illuminant).strip(),
+                         patch_size=patch_size, border=border, wavelengths=w,
+                         white_luminance=_real("luminance", luminance, "a luminance in cd/m^2"), distance=distance,
+                         angular_resolution=angular_resolution)
+
+
 def _grid(rows, cols, patch_size, border):
     """The Munsell grid's whole numbers, checked: rows, cols and patch_size >= 1, border >= 0."""
     note = "(rows, cols, patch_size and border are whole numbers)"
@@ -310,7 +333,7 @@ def _chips(chips):
 
 
 _CHARTS = {"slanted-edge": slanted_edge_scene, "zone-plate": zone_plate_scene, "uniform": uniform_scene,
-           "munsell": munsell_scene}
+           "munsell": munsell_scene, "macbeth": macbeth_chart}
 
 
 def _option_value(key, v):
@@ -397,6 +420,10 @@ def chart_shape(name, **options):
         rows, cols, patch, border = _grid(*(o[k] for k in ("rows", "cols", "patch_size", "border")))
         step = patch + border
         return border + rows * step, border + cols * step, _wavelengths(o["wavelengths"]).size
+    if key == "macbeth":
+        patch = _whole("patch_size", o["patch_size"], "a whole number of pixels >= 1", 1)
+        border = _whole("border", o["border"], "a whole number of pixels >= 0", 0)
+        return border + 4 * (patch + border), border + 6 * (patch + border), _wavelengths(o["wavelengths"]).size
     return (*_size(o["size"]), _wavelengths(o["wavelengths"]).size)
 
 
@@ -450,7 +477,7 @@ def fitted_chart_options(name, frame, angular_resolution, distance, *, fill=FRAM
       that its corners reach 0.5 cycles per sample and nothing in the chart is
       above its own Nyquist (aliasing in the chart itself);
     * uniform field: 8 x coarser (a flat field interpolates to itself): few values;
-    * Munsell grid (and any chart of a given ``size``): its own pixels, at the
+    * Munsell grid and Macbeth chart (and any chart of a given ``size``): its own pixels, at the
       angular resolution that makes the side that fills first span ``fill``
       of the frame (and more, up to the whole side, if the other then spans
       less than 80 %: a chart of another shape than the frame).
@@ -468,7 +495,7 @@ def fitted_chart_options(name, frame, angular_resolution, distance, *, fill=FRAM
     out = dict(given)
     out["distance"] = _tidy(_real("distance", distance, "a distance in metres"))
     planes = _wavelengths(given.get("wavelengths", defaults.get("wavelengths", DEFAULT_WAVELENGTHS))).size
-    if key == "munsell" or "size" in given:
+    if key in ("munsell", "macbeth") or "size" in given:
         h, w, _ = chart_shape(key, **given)
         sides = np.array([h / (h_cam * phi_x / phi_y), w / w_cam])  # chart pixels per camera pixel at a full side
         # the axis the chart fills first at ``fill``; if the other then spans less than 80 %, as much more as

@@ -25,7 +25,9 @@ _SHIPPED = {
     "cacaphony290": ("Cacaphony290/Cacaphony290.Simg", "cacaphony"),
     "bfgb128": ("BFGB_128/BFGB_128.Simg", "bfgb"),
 }
-SCENE_NAMES = tuple(_SHIPPED) + ("macbeth", "stripes") + CHART_NAMES + tuple(f"photo-{p}" for p in SAMPLE_PHOTOS)
+# (the Macbeth chart is a chart too, "macbeth:patch_size=32": named once, in its place after the shipped scenes)
+SCENE_NAMES = tuple(dict.fromkeys(tuple(_SHIPPED) + ("macbeth", "stripes") + CHART_NAMES
+                                  + tuple(f"photo-{p}" for p in SAMPLE_PHOTOS)))
 _CACHE = {}
 
 
@@ -37,7 +39,7 @@ def load_scene(name_or_path, *, negative="error"):
     (:mod:`~camsim_core.scene.matlab`: ICVL, ARAD, Harvard, ISETCam), a photo
     ``.png`` / ``.jpg`` (:mod:`~camsim_core.scene.photo`, a plausible
     spectrum), or a folder of band PNGs (:mod:`~camsim_core.scene.cave`).
-    Charts (``slanted-edge``, ``zone-plate``, ``uniform``, ``munsell``) come
+    Charts (``slanted-edge``, ``zone-plate``, ``uniform``, ``munsell``, ``macbeth``) come
     at their default settings (:mod:`~camsim_core.scene.charts`), or with
     options after a colon: ``"slanted-edge:angle=10,contrast=2,illuminant=A"``. What a
     reader had to assume is in ``scene.notices`` (and warned).
