@@ -291,6 +291,10 @@ class ExplorerState(param.Parameterized):
         self._latest = 0
         self._accepted = None  # parameters of the newest job accepted (computed or being computed)
         self._refused_while = None  # the newest job's id when a change was last refused (see ``_apply``)
+        self._fitted = set()  # names of the charts fit_chart made (re-fitted when the frame changes)
+        self._pending_fit = None  # a chart being fitted in the computing thread (see ``fit_chart``)
+        self._chart_notice = ""  # the notice of a chart fitted here, carried by the next job to ``_apply``
+        self._built = None  # (name, chart) made in the computing thread and not yet shown (a newer job reuses it)
         #: ``prepare(result)`` callables run after each computation, in the computing thread (views put their
         #: display arrays there, so the event loop only hands them to the browser)
         self.preparers = []
@@ -348,14 +352,45 @@ class ExplorerState(param.Parameterized):
                     self._updating = False
         if "mosaic" in names and self.mosaic == "custom" and self.result is not None:
             self._start_custom_tile()
-        fit = "scene" in names and self.scene in _CHART_NAMES and not getattr(self, "_exact_chart", False)
-        fitted = self.fit_chart() if fit else ""  # issue 37: a chart picked in the scene list fills the frame
+        fit, expose = self._fit_wanted(names)
+        # issue 37: a chart picked in the scene list fills the frame; a fitted chart follows the frame's changes
+        fitted = self.fit_chart(fit, expose=expose) if fit else ""
         refused = self.message if fit and not fitted else ""
         self.recompute()
-        if fitted:
-            self.notice = fitted  # (computing the result resets the notice)
-        elif refused and not self.message:
+        if refused and not self.message:
             self.message = refused
+
+    #: Parameters that change the camera's frame (its pixels, their angle, the distance): a fitted chart follows.
+    _FRAME_PARAMETERS = frozenset({"camera", "distance", "sensor"})
+
+    def _fit_wanted(self, names):
+        """``(chart, expose)``: the chart to fit to the frame after changes ``names`` (None: none), and whether
+        to expose it again.
+
+        A chart picked in the scene list is fitted and exposed. A chart this session fitted (not one whose
+        options were typed, :meth:`set_chart`) is fitted again when the frame changes: exposed again for a
+        new camera or sensor (another sensitivity), keeping the exposure for a new distance (the chart's
+        radiance does not change with it).
+        """
+        pending = self._pending_fit
+        if "scene" in names:
+            self._pending_fit = self._built = None
+            if self.scene in _CHART_NAMES and not getattr(self, "_exact_chart", False):
+                return self.scene, True
+            return None, False
+        if pending is not None and "exposure" in names:  # the user's exposure, set while the chart is made
+            self._pending_fit = pending = dict(pending, expose=False)
+        if not names & self._FRAME_PARAMETERS:
+            return None, False
+        if pending is not None and self.scene == pending["on"]:
+            return pending["base"], pending["expose"] or bool(names & {"camera", "sensor"})
+        if self.scene in self._fitted:
+            try:
+                self.camera_object()
+            except CamsimError:  # the new frame is refused (recompute says why): the chart stays
+                return None, False
+            return self.scene.partition(":")[0], bool(names & {"camera", "sensor"})
+        return None, False
 
     def _start_custom_tile(self):
         """A custom tile the camera cannot use (refused, or not sampling every sensor) starts from the
@@ -409,8 +444,12 @@ class ExplorerState(param.Parameterized):
                 check_text(name, value)
         camera = self.camera_object()
         check_viewing(self.viewing, camera)
-        return {"id": next(self._requests), "params": params, "scene": self.scene_object(),
-                "camera": camera, "processing": self.processing()}
+        job = {"id": next(self._requests), "params": params, "scene": self.scene_object(),
+               "camera": camera, "processing": self.processing()}
+        if self._pending_fit is not None and self.scene == self._pending_fit["on"]:
+            job["chart"] = dict(self._pending_fit, light=self.light)  # made in the computing thread (``_compute``)
+        job["notice"], self._chart_notice = self._chart_notice, ""
+        return job
 
     def _compute(self, job):
         """Run the cached pipeline (the only slow part; safe in a worker thread: one pipeline per session).
@@ -421,11 +460,12 @@ class ExplorerState(param.Parameterized):
         """
         try:
             name = job["params"]["scene"]  # the job's scene: the widget may have moved on meanwhile
-            shipped = ":" not in name  # never share an upload's arrays between sessions
+            scene, camera = self._fitted_for(job) if "chart" in job else (job["scene"], job["camera"])
+            shipped = ":" not in name and "chart" not in job  # never share an upload's arrays between sessions
             if shipped and self._first_run and name in _WARM:
                 self.pipeline.start_from(_WARM[name])
             self._first_run = False
-            res = self.pipeline.run(job["scene"], job["camera"], job["processing"])
+            res = self.pipeline.run(scene, camera, job["processing"])
             for prepare in self.preparers:
                 try:
                     prepare(res)
@@ -451,16 +491,23 @@ class ExplorerState(param.Parameterized):
         if error is None:
             unavailable = {k: v for k, v in res.errors.items() if "NotImplementedError" in v}
             refused = {k: v for k, v in res.errors.items() if k not in unavailable}
-            self.notice = ("Not yet available in the engine: " + ", ".join(unavailable)) if unavailable else ""
+            # the chart's own notice ("Chart sized to the frame ...") stays beside what the engine could not do
+            notes = [job.get("notice", "")] + (["Not yet available in the engine: " + ", ".join(unavailable)]
+                                               if unavailable else [])
+            self.notice = " ".join(n for n in notes if n)
             if refused:  # a bad combination (e.g. a Bayer-only demosaicing on a 4-sensor grid)
                 error = "; ".join(f"{k}: {v}" for k, v in refused.items())
         if error is not None:
+            if "chart" in job:
+                self._pending_fit = None
             self._refuse(error)
             self._accepted = self.shown
             self.computing = False
             return
         if job["id"] != self._refused_while:  # a refusal made while this job computed stays in sight
             self.message = ""
+        if "chart" in job:
+            self._show_fitted(job)
         res.params = job["params"]
         self.shown = dict(job["params"])
         self.param.update(result=res, computing=False)  # one batch: views redraw once
@@ -637,6 +684,9 @@ class ExplorerState(param.Parameterized):
         except CamsimError as exc:
             self.message = f"Chart options refused: {exc}"
             return False
+        if select:  # the options' chart as they say: not re-fitted when the frame changes
+            self._fitted.discard(key)
+            self._pending_fit = None
         if scene is not None:
             self.add_scene(key, scene, select=select)
         elif select:
@@ -647,51 +697,135 @@ class ExplorerState(param.Parameterized):
                 self._exact_chart = False
         return True
 
-    def fit_chart(self, name=None):
+    def fit_chart(self, name=None, expose=True):
         """Make test chart ``name`` (default: the scene) fill the camera's frame at the current distance,
-        select it and expose it. Returns the notice saying so, or "" (and ``message`` says why not).
+        select it and expose it (``expose``). Returns the notice saying so, or "" (and ``message`` says why not).
 
         The chart is sized and sampled by
         :func:`~camsim_core.scene.charts.fitted_chart_options` (each side
         :data:`~camsim_core.scene.charts.FRAME_FILL` of the frame; the edge and
         the zone plate one sample per camera pixel: on the default camera 860 x
-        1295 x 31 values, 276 MB), at most ``LIMITS.max_chart_values`` values
+        1295 x 31 values, 138 MB in float32), at most ``LIMITS.max_chart_values`` values
         (coarser samples beyond), and kept under the name that makes
         it again (links, files, the report). The exposure puts the chart's
         brightest 0.5 % at :data:`CHART_EXPOSURE` of full scale (the default
         charts at 3.32 m were 39 x 39 pixels at 1 % of full scale). Picking a
-        chart in the scene list calls it; a chart's options box
+        chart in the scene list calls it, and so does a change of the frame (camera, sensor, distance)
+        while a chart it fitted is shown; a chart's options box
         (:meth:`set_chart`) makes exactly the chart its options say.
-        """
-        from camsim_core.scene.charts import chart, chart_name, fitted_chart_options
 
+        With a runner (a server), making the chart (about 1 s) and its exposure is the computing
+        thread's work, with the next result (:meth:`_compute`): the event loop only sizes it, the chart
+        is selected and the notice shown when the result arrives (:meth:`_apply`), and this returns a
+        notice saying that the chart is being sized. Without one, everything happens here.
+        """
         base = str(name or self.scene).partition(":")[0]
         try:
-            cam = self.camera_object()
-            opts = fitted_chart_options(base, (cam.height, cam.width), cam.angular_resolution, cam.distance,
-                                        max_values=LIMITS.max_chart_values)
-            key = chart_name(base, opts)
-            scene = self._uploads.get(key) or chart(key, max_values=LIMITS.max_chart_values)
-            value = float(cc.auto_exposure(scale_light(scene, self.light), cam, target=CHART_EXPOSURE))
+            spec = self._fit_spec(base, expose)
+        except CamsimError as exc:
+            self.message = f"Chart {base} kept at its default size: {exc}"
+            return ""
+        if self.runner is not None:
+            self._pending_fit = spec
+            self.notice = f"Sizing chart {base} to the camera's frame..."
+            return self.notice
+        try:
+            scene, lit, value = self._make_fitted(spec, self.camera_object())
         except CamsimError as exc:
             self.message = f"Chart {base} kept at its default size: {exc}"
             return ""
         lo, hi = self.param.exposure.bounds
         updating, self._updating = self._updating, True
         try:
-            self.add_scene(key, scene)
-            self.exposure = float(np.clip(value, lo, hi))
+            self.add_scene(spec["key"], scene)
+            self._lit = (scene, spec["light"], lit)
+            if value is not None:
+                self.exposure = float(np.clip(value, lo, hi))
         finally:
             self._updating = updating
-        limited = "" if lo <= value <= hi else f" ({value:.4g} s is outside {lo:g}-{hi:g} s: limited)"
-        h, w = scene.data.shape[:2]
-        ar = opts["angular_resolution"]
-        cover = (min(1.0, h * cam.angular_resolution[1] / ar / cam.height), min(1.0, w * cam.angular_resolution[0] / ar / cam.width))
-        self.notice = (f"Chart sized to the frame: {h} x {w} samples at {ar:g} px/deg, {cam.distance:g} m away, "
-                       f"cover {cover[0]:.0%} x {cover[1]:.0%} of the camera's {cam.height} x {cam.width} "
-                       f"pixels; exposure {self.exposure:.4g} s puts its brightest 0.5 % at "
-                       f"{CHART_EXPOSURE:.0%} of full scale{limited}.")
+        self._fitted.add(spec["key"])
+        self.notice = self._chart_notice = self._fit_notice(spec, scene, value, self.exposure)
         return self.notice
+
+    def _fit_spec(self, base, expose):
+        """What fitting chart ``base`` to the current frame takes (cheap: no chart is made): its name, the
+        frame, the light, whether to expose it, and the scene it replaces (``on``: the chart picked, or the
+        chart fitted to the frame before). Raises CamsimError (a refused camera or chart)."""
+        from camsim_core.scene.charts import chart_name, fitted_chart_options
+
+        cam = self.camera_object()
+        opts = fitted_chart_options(base, (cam.height, cam.width), cam.angular_resolution, cam.distance,
+                                    max_values=LIMITS.max_chart_values)
+        return {"base": base, "on": self.scene, "key": chart_name(base, opts), "sampling": float(opts["angular_resolution"]),
+                "frame": (cam.height, cam.width), "angular_resolution": tuple(cam.angular_resolution),
+                "distance": cam.distance, "light": self.light, "expose": bool(expose)}
+
+    def _make_fitted(self, spec, camera, scene=None):
+        """``(chart, chart under the light, exposure or None)`` of a :meth:`_fit_spec`: the slow part (the
+        chart is made unless this session holds it, or it is given), safe in the computing thread."""
+        from camsim_core.scene.charts import chart
+
+        if scene is None:
+            scene = self._uploads.get(spec["key"]) or chart(spec["key"], max_values=LIMITS.max_chart_values)
+        lit = scale_light(scene, spec["light"])
+        value = float(cc.auto_exposure(lit, camera, target=CHART_EXPOSURE)) if spec["expose"] else None
+        return scene, lit, value
+
+    def _fit_notice(self, spec, scene, value, exposure):
+        """The notice of a fitted chart: its size, sampling, cover of the frame and exposure."""
+        lo, hi = self.param.exposure.bounds
+        h, w = scene.data.shape[:2]
+        ar, (h_cam, w_cam), (phi_x, phi_y) = spec["sampling"], spec["frame"], spec["angular_resolution"]
+        cover = (min(1.0, h * phi_y / ar / h_cam), min(1.0, w * phi_x / ar / w_cam))
+        if value is None:
+            exposed = f"exposure kept at {exposure:.4g} s."
+        else:
+            limited = "" if lo <= value <= hi else f" ({value:.4g} s is outside {lo:g}-{hi:g} s: limited)"
+            exposed = (f"exposure {exposure:.4g} s puts its brightest 0.5 % at {CHART_EXPOSURE:.0%} of full "
+                       f"scale{limited}.")
+        return (f"Chart sized to the frame: {h} x {w} samples at {ar:g} px/deg, {spec['distance']:g} m away, "
+                f"cover {cover[0]:.0%} x {cover[1]:.0%} of the camera's {h_cam} x {w_cam} pixels; {exposed}")
+
+    def _fitted_for(self, job):
+        """The scene and camera a job with a chart to fit computes (in the computing thread): the fitted
+        chart under the light and the camera at its exposure; on a refusal the job's own (the chart at its
+        default size) and the reason, for :meth:`_show_fitted`."""
+        spec = job["chart"]
+        held = self._built
+        try:
+            scene, lit, value = self._make_fitted(spec, job["camera"], held[1] if held and held[0] == spec["key"] else None)
+            self._built = (spec["key"], scene)  # a job superseding this one (not shown) finds it made
+        except CamsimError as exc:
+            spec["error"] = f"Chart {spec['base']} kept at its default size: {exc}"
+            return job["scene"], job["camera"]
+        except Exception as exc:  # never a dead page
+            spec["error"] = f"Chart {spec['base']} kept at its default size: {type(exc).__name__}: {exc}"
+            return job["scene"], job["camera"]
+        lo, hi = self.param.exposure.bounds
+        exposure = job["camera"].exposure if value is None else float(np.clip(value, lo, hi))
+        spec.update(scene=scene, lit=lit, exposure=exposure)
+        job["notice"] = self._fit_notice(spec, scene, value, exposure)
+        return lit, job["camera"] if value is None else job["camera"].replace(exposure=exposure)
+
+    def _show_fitted(self, job):
+        """On the event loop, with a job's result: select the chart fitted in the computing thread at its
+        exposure (the job's parameters say so: they are the result's), or say why it was not."""
+        spec = job["chart"]
+        if self._pending_fit is not None and self._pending_fit["key"] == spec["key"]:
+            self._pending_fit = None
+        self._built = None  # held by the session's scenes from now on (or no longer wanted)
+        if "error" in spec:
+            self.message = spec["error"]
+            return
+        updating, self._updating = self._updating, True
+        try:
+            self.add_scene(spec["key"], spec["scene"], select=False)
+            self._lit = (spec["scene"], spec["light"], spec["lit"])
+            self.param.update(scene=spec["key"], exposure=spec["exposure"])
+        finally:
+            self._updating = updating
+        self._fitted.add(spec["key"])
+        job["params"].update(scene=spec["key"], exposure=spec["exposure"])
 
     def add_scene(self, key, scene, select=True):
         """Offer ``scene`` (a Scene object) under ``key`` in this session and select it (``select``).
