@@ -485,7 +485,14 @@ def _rgb_hover():
 
 
 def _exposure_flags(res):
-    """The warnings a score of ``res`` must carry (a black, empty or clipped frame: :attr:`camsim_core.cache.Result.exposure`)."""
+    """The warnings a score of ``res`` must carry (a black, empty or clipped frame: :attr:`camsim_core.cache.Result.exposure`),
+    with the result's camera: an electron-level sensor's pixels at its full well are clipped too, also below the
+    ADC's full scale (:func:`camsim_core.metrics.exposure.saturation_level`)."""
+    from camsim_core.metrics.exposure import exposure_measures, saturation_level
+
+    camera = getattr(res, "camera", None)
+    if getattr(res, "raw", None) is not None and saturation_level(camera) is not None:
+        return tuple(exposure_measures(res.raw, camera).flags)
     exposure = getattr(res, "exposure", None)
     return tuple(exposure.flags) if exposure is not None else ()
 

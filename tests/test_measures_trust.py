@@ -239,3 +239,61 @@ def test_pixel_size_snr_at_5_lux_follows_the_emva_1288_model():
     assert -6.5 < model < -3.5
     raw = simulate(grey, cam)
     assert np.mean(raw.data[idx == g] == 0) < 0.005
+
+
+def _saturating_imx174(gain, luminance, size=(64, 96)):
+    """The IMX174 (12 bits, full well 32,000 e-, 7 e- read noise, 2 e- DSNU) at analog ``gain`` on a uniform field
+    of ``luminance`` cd/m^2 filling its (small) frame: (camera, raw, the pipeline's result)."""
+    from camsim_core.scene.charts import uniform_scene
+
+    cam = camera_preset("imx174").replace(analog_gain=gain, height=size[0], width=size[1])
+    scene = uniform_scene(size, luminance=luminance, distance=cam.distance or 3.32,
+                          angular_resolution=cam.angular_resolution)
+    res = Pipeline().run(scene, cam, Processing(metrics=("cielab",)))
+    return cam, res.raw, res
+
+
+def test_pixels_at_the_full_well_below_full_scale_are_clipped():
+    """Gain 0.5: the full well (32,000 e-) times the system gain K = 0.5 / electrons_per_dn is half the ADC's
+    4095 DN. A uniform field bright enough to fill the well 100 times over saturates every pixel in the sensor:
+    its raw sits at K x full well (within the read-out noise), far below full scale, where the ADC clips
+    nothing. Each pixel is clipped all the same (its value says only that the light was at least this much):
+    the clipped share is ~1 and the frame is flagged, here and in the explorer's flags."""
+    from app.views import _exposure_flags
+    from camsim_core.metrics.exposure import exposure_measures
+
+    cam, raw, res = _saturating_imx174(0.5, 1e5)
+    k = cam.analog_gain / cam.electrons_per_dn
+    well_dn = cam.black_level + cam.full_well * k  # 2047.5 DN: the saturated value, from the EMVA 1288 model
+    data = np.asarray(raw.data, float)
+    assert well_dn < 0.6 * raw.full_scale
+    # every pixel saturated in the sensor: at the well's value within the read-out noise (7 e-, 2 e- DSNU) and
+    # the ADC's rounding, and none at full scale (the old measure counted only those: 0 %)
+    sigma_dn = np.hypot(cam.read_noise, cam.dsnu) * k
+    assert np.all(np.abs(data - well_dn) <= 5 * sigma_dn + 0.5)
+    assert not np.any(data >= raw.full_scale - 0.5)
+    m = exposure_measures(raw, cam)
+    assert m.clipped > 0.999
+    assert any(f.startswith("fully clipped:") and "full well" in f for f in m.flags), m.flags
+    assert any(f.startswith("fully clipped:") for f in _exposure_flags(res))
+
+
+def test_a_frame_below_the_full_well_is_not_clipped_and_a_partial_one_is_counted():
+    """The same camera on a field whose brightest pixel holds about 40 % of the well (found from a field at
+    100 cd/m^2, where the sensor is linear: electrons proportional to the light): no pixel is near the well,
+    nothing is clipped. Half the frame from the saturating field and half from this one: the clipped share is
+    the saturated half's, 0.5."""
+    from camsim_core.metrics.exposure import exposure_measures
+
+    cam, saturated, _ = _saturating_imx174(0.5, 1e5)
+    k = cam.analog_gain / cam.electrons_per_dn
+    _, linear, _ = _saturating_imx174(0.5, 100.0)
+    brightest = float(np.max(np.asarray(linear.data, float) - cam.black_level)) / k  # e- at 100 cd/m^2
+    assert brightest < 0.3 * cam.full_well  # linear there: far below the well
+    _, dim, _ = _saturating_imx174(0.5, 100.0 * 0.4 * cam.full_well / brightest)
+    top = float(np.max(np.asarray(dim.data, float) - cam.black_level)) / k / cam.full_well
+    assert 0.35 < top < 0.5
+    assert exposure_measures(dim, cam).clipped == 0.0 and exposure_measures(dim, cam).flags == ()
+    w = dim.data.shape[1] // 2
+    half = dim.replace(data=np.concatenate([np.asarray(saturated.data)[:, :w], np.asarray(dim.data)[:, w:]], axis=1))
+    assert exposure_measures(half, cam).clipped == pytest.approx(0.5)

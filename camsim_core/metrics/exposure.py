@@ -16,7 +16,11 @@ when all are):
 
 * ``clipped``: the share of pixels at the full scale (``2**bits - 1``, a
   half step below counting when quantized); 0 for a raw without a bit
-  depth, which no ADC clipped;
+  depth, which no ADC clipped. Given the camera, an electron-level sensor's
+  pixels at its full well count too (:func:`saturation_level`): when the
+  full well times the system gain is below the ADC's full scale, a pixel
+  saturates in the sensor, at a value no ADC clipped (``limit`` then says
+  "the full well");
 * ``black``: the share at or below the black level (the pedestal, a half
   step above counting when quantized): no light recorded;
 * ``signal``: the mean value above the pedestal as a fraction of the range
@@ -24,8 +28,8 @@ when all are):
 
 Flags: a *black frame* when at least half the pixels are at the black
 level; *under-exposed* when the mean signal is below 2 % of the range;
-*clipped* when at least 1 % of the pixels are at full scale (*fully
-clipped* from 99 %); an *empty frame* has no pixels.
+*clipped* when at least 1 % of the pixels are at full scale or at the
+full well (*fully clipped* from 99 %); an *empty frame* has no pixels.
 """
 
 from __future__ import annotations
@@ -34,7 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ExposureMeasures", "exposure_measures", "exposure_flags", "CLIPPED_SHARE", "BLACK_SHARE", "DIM_SIGNAL"]
+__all__ = ["ExposureMeasures", "exposure_measures", "exposure_flags", "saturation_level", "CLIPPED_SHARE", "BLACK_SHARE",
+           "DIM_SIGNAL", "SATURATION_SIGMAS"]
 
 #: Share of pixels at full scale from which a frame is flagged clipped.
 CLIPPED_SHARE = 0.01
@@ -42,6 +47,9 @@ CLIPPED_SHARE = 0.01
 BLACK_SHARE = 0.5
 #: Mean signal (fraction of the range above the pedestal) below which a frame is flagged under-exposed.
 DIM_SIGNAL = 0.02
+#: A pixel within this many standard deviations of the read-out (read noise and DSNU, added after the charge is
+#: clipped at the full well) below the full well's value counts as saturated: it cannot be told from one.
+SATURATION_SIGMAS = 3.0
 
 
 @dataclass(frozen=True)
@@ -52,6 +60,8 @@ class ExposureMeasures:
     clipped: float
     black: float
     signal: float
+    #: What a clipped pixel is at: "full scale" (the ADC's), or "the full well" (a sensor saturating below it).
+    limit: str = "full scale"
 
     @property
     def flags(self):
@@ -64,14 +74,14 @@ class ExposureMeasures:
         elif self.signal < DIM_SIGNAL:
             out.append(f"under-exposed: mean signal {_percent(self.signal)} of full scale")
         if self.clipped >= 0.99:
-            out.append(f"fully clipped: {_percent(self.clipped)} of pixels at full scale")
+            out.append(f"fully clipped: {_percent(self.clipped)} of pixels at {self.limit}")
         elif self.clipped >= CLIPPED_SHARE:
-            out.append(f"clipped: {_percent(self.clipped)} of pixels at full scale")
+            out.append(f"clipped: {_percent(self.clipped)} of pixels at {self.limit}")
         return tuple(out)
 
     def as_dict(self):
         return {"pixels": self.pixels, "clipped": self.clipped, "black": self.black, "signal": self.signal,
-                "flags": list(self.flags)}
+                "limit": self.limit, "flags": list(self.flags)}
 
 
 def _percent(share):
@@ -97,8 +107,36 @@ def _per_pixel(level, image, data):
     return level  # one per sensor, along the last axis of a full-colour image
 
 
-def exposure_measures(raw):
-    """The :class:`ExposureMeasures` of a raw camera image (digital units, its pedestal still in its data)."""
+def saturation_level(camera):
+    """The value (digital units above the black level, before the ADC rounds and clips) from which a pixel of
+    ``camera``'s electron-level sensor is at its full well; None for a sensor without one.
+
+    The sensor (:func:`camsim_core.simulation.electrons.electron_sensor`) clips the charge at ``full_well``
+    electrons, then adds the DSNU and the read noise (e- rms) and multiplies by the system gain
+    K = ``analog_gain / electrons_per_dn`` DN/e-, adding ``noise_mean``; the ADC applies the static
+    non-linearity. A saturated pixel is therefore at K x full_well + noise_mean, spread by the read-out's
+    noise: the level returned is :data:`SATURATION_SIGMAS` standard deviations of it below (at most 5 % of the
+    full well below), so that a saturated pixel is counted whatever its read-out noise.
+    """
+    if camera is None or getattr(camera, "noise_model", None) != "photon" or getattr(camera, "full_well", None) is None:
+        return None
+    well = float(camera.full_well)
+    k = float(camera.analog_gain) / float(camera.electrons_per_dn)
+    spread = float(np.hypot(camera.read_noise, camera.dsnu))
+    level = (well - min(SATURATION_SIGMAS * spread, 0.05 * well)) * k + float(camera.noise_mean)
+    if camera.nonlinearity is not None and camera.bits is not None:
+        from ..simulation.digitize import apply_nonlinearity
+
+        level = float(apply_nonlinearity(np.array([level]), float(2 ** camera.bits - 1), camera.nonlinearity)[0])
+    return level
+
+
+def exposure_measures(raw, camera=None):
+    """The :class:`ExposureMeasures` of a raw camera image (digital units, its pedestal still in its data).
+
+    ``camera``: the camera that made it; an electron-level sensor's pixels at its full well then count as
+    clipped (:func:`saturation_level`), not only those at the ADC's full scale.
+    """
     data = np.asarray(raw.data)
     if data.dtype not in (np.float32, np.float64):
         data = data.astype(np.float64)
@@ -114,6 +152,13 @@ def exposure_measures(raw):
         clipped = data >= full - half
     else:
         clipped = np.zeros(data.shape, bool)
+    limit = "full scale"
+    well = saturation_level(camera)
+    if well is not None:
+        at_well = data >= black + well - half
+        if full is None or np.any(np.asarray(black + well, float) < full - half):  # saturates before the ADC clips
+            limit = "the full well"
+        clipped |= at_well
     if full_colour:
         at_black, clipped = at_black.all(axis=2), clipped.any(axis=2)
     elif data.ndim == 3:  # tiers of a mosaic: one pixel, several samples
@@ -123,9 +168,9 @@ def exposure_measures(raw):
         signal = (float(np.mean(data, dtype=np.float64)) - float(black)) / max(float(top), 1e-12)
     else:
         signal = float(np.mean((data - black) / np.maximum(top, 1e-12)))
-    return ExposureMeasures(pixels, float(np.mean(clipped)), float(np.mean(at_black)), signal)
+    return ExposureMeasures(pixels, float(np.mean(clipped)), float(np.mean(at_black)), signal, limit)
 
 
-def exposure_flags(raw):
+def exposure_flags(raw, camera=None):
     """The flags of :func:`exposure_measures` of ``raw`` (a tuple of short sentences)."""
-    return exposure_measures(raw).flags
+    return exposure_measures(raw, camera).flags
