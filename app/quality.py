@@ -13,14 +13,13 @@ from __future__ import annotations
 import holoviews as hv
 import numpy as np
 import panel as pn
-from holoviews import streams
 
 from camsim_core.errors import CamsimError
 from camsim_core.metrics.report import default_measures, measure_images
 
 from .safe_text import md_text
 
-__all__ = ["QualityView", "measures_for"]
+__all__ = ["QualityView", "measures_for", "channel_colours", "CHANNEL_COLOURS"]
 
 _HINT = "Pick the **slanted-edge** chart for the MTF, **uniform** for the SNR, **macbeth** for the patch dE."
 
@@ -35,21 +34,35 @@ def measures_for(scene_name, result):
     return tuple(names)
 
 
-def _mtf_plot(data):
-    """Overlay of the MTF curves (luminance bold) with MTF50 (red, dashed) and Nyquist (dotted)."""
-    mtf = data
+#: Each channel's colour in the MTF plot (the luminance black and bold); other sensors take the palette in turn.
+CHANNEL_COLOURS = {"R": "#d62728", "G": "#2ca02c", "B": "#1f77b4", "luminance": "black"}
+_PALETTE = ("#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
+_MTF_OPTS = dict(frame_width=420, frame_height=240, xlim=(0, 1), ylim=(0, 1.1))
+
+
+def channel_colours(names):
+    """``{name: colour}`` for the MTF curves: R red, G green, B blue, luminance black, others in turn."""
+    others = iter(_PALETTE * (1 + len(names) // len(_PALETTE)))
+    return {n: CHANNEL_COLOURS.get(n) or next(others) for n in names}
+
+
+def _mtf_plot(mtf):
+    """Overlay of the MTF curves (luminance bold) with MTF50 (dashed) and Nyquist (dotted): a new plot per
+    result (a plot updated in place could not change its number of curves: the tab broke on a new chart)."""
     if not mtf:
-        return hv.Overlay([hv.Curve([], "Frequency (cycles/pixel)", "MTF")]).opts(title="Slanted-edge MTF")
+        return hv.Curve([], "Frequency (cycles/pixel)", "MTF").opts(title="Slanted-edge MTF", **_MTF_OPTS)
+    colours = channel_colours(list(mtf))
     curves = []
     for name, v in mtf.items():
-        style = dict(line_width=3, color="black") if name == "luminance" else dict(line_width=1.5)
-        curves.append(hv.Curve((v["frequency"], v["mtf"]), "Frequency (cycles/pixel)", "MTF", label=name).opts(**style))
+        width = 3 if name == "luminance" else 1.5
+        curves.append(hv.Curve((v["frequency"], v["mtf"]), "Frequency (cycles/pixel)", "MTF", label=name)
+                      .opts(line_width=width, color=colours[name]))
     lum = mtf.get("luminance") or next(iter(mtf.values()))
     marks = [hv.VLine(0.5).opts(color="gray", line_dash="dotted")]
     if np.isfinite(lum["mtf50"]):
-        marks.append(hv.VLine(lum["mtf50"]).opts(color="red", line_dash="dashed"))
-    return hv.Overlay(curves + marks).opts(title=f"Slanted-edge MTF: MTF50 {lum['mtf50']:.3f} cycles/px (red), "
-                                                 "Nyquist dotted")
+        marks.append(hv.VLine(lum["mtf50"]).opts(color="black", line_dash="dashed"))
+    return hv.Overlay(curves + marks).opts(title=f"MTF50 {lum['mtf50']:.3f} cy/px (dashed)", legend_position="top_right",
+                                           **_MTF_OPTS)
 
 
 def _snr_table(snr):
@@ -73,10 +86,10 @@ class QualityView:
     def __init__(self, state):
         self.state = state
         self.report = {}
-        self.mtf_pipe = streams.Pipe(data={})
-        plot = hv.DynamicMap(_mtf_plot, streams=[self.mtf_pipe]).opts(
-            hv.opts.Overlay(frame_width=420, frame_height=240, xlim=(0, 1), ylim=(0, 1.1), legend_position="top_right"))
-        self.mtf = pn.pane.HoloViews(plot, css_classes=["camsim-mtf"], linked_axes=False, visible=False)
+        self.mtf_plot = pn.pane.HoloViews(_mtf_plot({}), linked_axes=False)
+        # shown and hidden as a whole: a HoloViews pane's own ``visible``, set after its plot was replaced, makes
+        # Panel (1.9) pass its layout parameters to the Bokeh figure, which refuses ``design`` (the tab broke)
+        self.mtf = pn.Column(self.mtf_plot, css_classes=["camsim-mtf"], visible=False, margin=0)
         self.text = pn.pane.Markdown("", css_classes=["camsim-quality"], sizing_mode="stretch_width")
         state.param.watch(lambda e: self.update(), ["result"])
         self.update()
@@ -94,7 +107,7 @@ class QualityView:
             self.report, problem = {}, f"**Not measured**: {md_text(exc)}"
         parts = [problem] if problem else []
         if "mtf" in self.report:
-            self.mtf_pipe.send(self.report["mtf"])  # new curves into the same plot
+            self.mtf_plot.object = _mtf_plot(self.report["mtf"])
             lines = [f"| {k} | {v['mtf50']:.3f} | {v['mtf_nyquist']:.3f} |" for k, v in self.report["mtf"].items()]
             parts.append("| channel | MTF50 (cycles/px) | MTF at Nyquist |\n|---|---|---|\n" + "\n".join(lines))
         self.mtf.visible = "mtf" in self.report

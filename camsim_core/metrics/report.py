@@ -36,8 +36,19 @@ _BY_SCENE = {"slanted-edge": ("mtf",), "uniform": ("snr",), "macbeth": ("color",
 
 
 def default_measures(scene_name):
-    """The measures a scene allows by its name: edge -> mtf, uniform -> snr, macbeth -> color, else similarity."""
-    return _BY_SCENE.get(str(scene_name).lower(), ("similarity",))
+    """The measures a scene allows by its name: edge -> mtf, uniform -> snr, macbeth -> color, else similarity.
+
+    A chart's options (``slanted-edge:size=860,...``, as a chart fitted to the frame is named) do not change
+    what it measures.
+
+    Examples
+    --------
+    >>> default_measures("slanted-edge:size=860,angle=5")
+    ('mtf',)
+    >>> default_measures("cacaphony290")
+    ('similarity',)
+    """
+    return _BY_SCENE.get(str(scene_name).partition(":")[0].strip().lower(), ("similarity",))
 
 
 def _central(shape, fraction=0.5):
