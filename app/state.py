@@ -971,15 +971,20 @@ class Runner:
                 self._deliver(job, outcome)
 
 
-def exposure_warnings(raw):
-    """Shares of clipped (at full scale) pixels and of pixels in the lowest 2 % of the digital range.
+def exposure_warnings(raw, camera=None):
+    """Shares of clipped pixels (at full scale, or at ``camera``'s full well when its sensor saturates below
+    full scale) and of pixels in the lowest 2 % of the digital range.
 
     ``raw`` is a CameraImage in digital units; returns ``(clipped, dark)`` as fractions.
     An unquantized image is measured against 255 (the display convention of the engine).
     """
+    from camsim_core.metrics.exposure import exposure_measures
+
     data = np.asarray(raw.data, float)
     full = float(raw.full_scale or 255.0)
     clipped = float(np.mean(data >= full - 0.5)) if raw.quantized else float(np.mean(data >= full))
+    if camera is not None:
+        clipped = max(clipped, float(exposure_measures(raw, camera).clipped))
     dark = float(np.mean(data <= 0.02 * full))
     return clipped, dark
 

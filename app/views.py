@@ -785,7 +785,7 @@ class ResultsView:
         if de is not None:
             view = self._memo("de_view", de, self._de_view)
             self._whole("de", self._de_coloured(de, view, *self._de_scale(view)), dict(value=view["image"]))
-        self._memo("exposure", res.raw, exposure_warnings)
+        self._memo("exposure", res.raw, lambda raw: exposure_warnings(raw, getattr(res, "camera", None)))
         self._memo("flags", res.raw, lambda raw: _exposure_flags(res))
         self._memo("rendered_y", res.xyz, _mean_y)
         self._memo("level", res.raw, mean_level)
@@ -905,7 +905,7 @@ class ResultsView:
             self.stats.object = (f"<p>{head}<strong>{label}</strong> mean dE <strong>{mean:.2f}</strong>{flagged} · median "
                                  f"<strong>{med:.2f}</strong>{view} · engine {1000 * engine_s:.0f} ms "
                                  f"({', '.join(steps) or 'nothing re-run'})</p>")
-        clipped, dark = self._memo("exposure", res.raw, exposure_warnings)
+        clipped, dark = self._memo("exposure", res.raw, lambda raw: exposure_warnings(raw, getattr(res, "camera", None)))
         notes = []
         if clipped > 0.01:
             notes.append(f"⚠ {100 * clipped:.1f} % of pixels are clipped (at full scale): lower the exposure")

@@ -176,7 +176,7 @@ class Result:
             return None
         held = self.__dict__.get("_exposure")
         if held is None or held[0] is not self.raw:
-            held = self.__dict__["_exposure"] = (self.raw, exposure_measures(self.raw))
+            held = self.__dict__["_exposure"] = (self.raw, exposure_measures(self.raw, getattr(self, "camera", None)))
         return held[1]
 
 

@@ -276,6 +276,11 @@ def test_pixels_at_the_full_well_below_full_scale_are_clipped():
     assert m.clipped > 0.999
     assert any(f.startswith("fully clipped:") and "full well" in f for f in m.flags), m.flags
     assert any(f.startswith("fully clipped:") for f in _exposure_flags(res))
+    # the same for the result's own measure (the CLI's and the report's) and the explorer's stats line
+    from app.state import exposure_warnings
+
+    assert res.exposure.clipped > 0.999
+    assert exposure_warnings(raw, cam)[0] > 0.999
 
 
 def test_a_frame_below_the_full_well_is_not_clipped_and_a_partial_one_is_counted():
