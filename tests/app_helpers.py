@@ -23,6 +23,7 @@ ARTIFACTS = ROOT / "test-artifacts"
 CHROMIUM = os.environ.get("CAMSIM_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking"]
 TIMEOUT = 90.0  # generous: the machine running the tests may be shared
+POLL = 0.05  # seconds between two looks of a polling wait (each look is a cheap read: the latency is the cost)
 
 
 def free_port():
@@ -62,7 +63,7 @@ def explorer_server(scene=None, extra_args=(), on_start=None, launcher=None):
                 pass
             if time.monotonic() > deadline:
                 raise RuntimeError(f"camsim serve did not answer on {url} within {TIMEOUT:.0f} s")
-            time.sleep(0.3)
+            time.sleep(POLL)
         if on_start is not None:
             on_start(proc)
         yield url
@@ -120,7 +121,7 @@ class Page:
                 return s
             if time.monotonic() > deadline:
                 raise AssertionError(f"status never satisfied the condition; last: {s}")
-            time.sleep(0.2)
+            time.sleep(POLL)
 
     def params(self):
         return self.status()["params"]
@@ -148,7 +149,7 @@ class Page:
                 return text
             if time.monotonic() > deadline:
                 raise AssertionError(f"the alert never said {words!r}; it shows {text!r}")
-            self.page.wait_for_timeout(100)
+            self.page.wait_for_timeout(POLL * 1000)
 
     def text(self, css):
         """Visible text of a Markdown-like pane (its content lives in a shadow root)."""
@@ -185,7 +186,102 @@ def wait_for_log(url, text, count=1, timeout=TIMEOUT):
             return n
         if time.monotonic() > deadline:
             raise AssertionError(f"the server logged {text!r} {n} times in {timeout:.0f} s, expected {count}")
-        time.sleep(0.2)
+        time.sleep(POLL)
+
+
+def wait_until(fn, timeout=TIMEOUT, what="the condition", until=bool, poll=POLL):
+    """Call ``fn()`` until ``until(value)`` holds (by default: the value is truthy); return that value.
+
+    Fails with ``what`` and the last value after ``timeout`` seconds. For a wait on what a test then asserts,
+    instead of one read after a fixed sleep (which fails on a loaded machine and wastes time on an idle one).
+    """
+    deadline = time.monotonic() + timeout
+    while True:
+        value = fn()
+        if until(value):
+            return value
+        if time.monotonic() > deadline:
+            shown = repr(value)
+            raise AssertionError(f"never within {timeout:.0f} s: {what} (last: {shown[:500]})")
+        time.sleep(poll)
+
+
+def eventually(check, timeout=TIMEOUT, poll=POLL):
+    """Run ``check()`` (assertions) until it passes; return its value. After ``timeout`` seconds the last
+    failure is raised, saying how long it was retried: the same assertions as one run, once the page is there."""
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            return check()
+        except AssertionError as exc:
+            if time.monotonic() > deadline:
+                raise AssertionError(f"still failing after {timeout:.0f} s: {exc}") from exc
+        time.sleep(poll)
+
+
+def _pw(page):
+    """The Playwright page of a :class:`Page` (or the Playwright page itself)."""
+    return getattr(page, "page", page)
+
+
+def next_frames(page, n=2):
+    """Wait until the browser has drawn ``n`` more animation frames (what arrived before is on screen)."""
+    _pw(page).evaluate("n => new Promise(done => { const step = k => k ? requestAnimationFrame(() => step(k - 1))"
+                       " : done(true); step(n); })", n)
+
+
+def stable_boxes(page, selectors, timeout=TIMEOUT):
+    """The bounding boxes of the first element of each CSS selector, once they are the same across two
+    animation frames (the layout has settled after a resize or a change of mode)."""
+    locators = [_pw(page).locator(css).first for css in selectors]
+
+    def look():
+        before = [loc.bounding_box() for loc in locators]
+        next_frames(page)
+        after = [loc.bounding_box() for loc in locators]
+        return after if before == after and None not in after else None
+
+    return wait_until(look, timeout, f"the boxes of {', '.join(selectors)} stay put for two frames")
+
+
+def shot_until(page, selector, check, what, name=None, timeout=30.0):
+    """Screenshots of ``selector`` (the whole page if None) until ``check(png_bytes)`` holds and the picture is
+    the same two animation frames later (drawn, not half-way); return the PNG bytes. ``name``: also saved as
+    ``test-artifacts/NAME.png``."""
+    pw = _pw(page)
+
+    def take():
+        if selector:
+            return pw.locator(selector).first.screenshot()
+        return pw.screenshot(full_page=True)
+
+    def look():
+        png = take()
+        if not check(png):
+            return None
+        next_frames(pw)
+        return png if take() == png else None
+
+    png = wait_until(look, timeout, what)
+    if name:
+        ARTIFACTS.mkdir(exist_ok=True)
+        (ARTIFACTS / f"{name}.png").write_bytes(png)
+    return png
+
+
+def settled_shot(page, selector=None, name=None, timeout=30.0):
+    """A screenshot once no pane shows the loading state and the picture is the same across two frames."""
+    if hasattr(page, "status"):
+        wait_until(lambda: loading_count(page) == 0, timeout, "no pane shows the loading state")
+    return shot_until(page, selector, lambda png: True, f"{selector or 'the page'} stays the same for two frames",
+                      name, timeout)
+
+
+def shot_until_changed(page, selector, before, name=None, timeout=30.0):
+    """A settled screenshot of ``selector`` that differs from the screenshot ``before`` (fails after ``timeout``
+    seconds if the picture never changes)."""
+    return shot_until(page, selector, lambda png: png != before,
+                      f"the picture of {selector or 'the page'} changes (from the one taken before)", name, timeout)
 
 
 def background_share(png_bytes, background=(255, 255, 255), tol=8):
