@@ -9,8 +9,9 @@ import pytest
 
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
-from app_helpers import (ARTIFACTS, CHROMIUM_ARGS, FIGURES_JS, IMAGE_VIEWS, Page, background_share, chromium_path,
-                         explorer_server, figures, loading_count, server_log, shows_whole_image, wait_for_log)
+from app_helpers import (ARTIFACTS, FIGURES_JS, IMAGE_VIEWS, POLL, Page, background_share, eventually, explorer_server,
+                         figures, loading_count, server_log, settled_shot, shot_until, shot_until_changed, shows_whole_image,
+                         stable_boxes, wait_for_log, wait_until)
 
 pytestmark = pytest.mark.browser
 
@@ -20,20 +21,6 @@ def server():
     ARTIFACTS.mkdir(exist_ok=True)
     with explorer_server() as url:
         yield url
-
-
-@pytest.fixture(scope="module")
-def browser():
-    try:
-        path = chromium_path()
-    except RuntimeError as exc:
-        pytest.fail(str(exc))
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
-        yield b
-        b.close()
 
 
 @pytest.fixture
@@ -54,11 +41,9 @@ def test_a_first_result_landing_while_the_page_renders_is_shown(browser):
             assert s["mean_de"] > 0
             assert f"{s['mean_de']:.2f}" in pg.text(".camsim-stats")
             assert loading_count(pg) == 0
-            pg.page.wait_for_timeout(300)  # let the canvases draw the data that arrived
-            for key in ("raw", "rendered"):
-                png = pg.page.locator(f".camsim-{key}-plot").first.screenshot(
-                    path=str(ARTIFACTS / f"first-result-while-rendering-{key}.png"))
-                assert background_share(png) < 0.5, f"the {key} view is blank"
+            for key in ("raw", "rendered"):  # the canvases draw the data that arrived
+                shot_until(pg, f".camsim-{key}-plot", lambda png: background_share(png) < 0.5,
+                           f"the {key} view is not blank", name=f"first-result-while-rendering-{key}")
         finally:
             pg.close()
 
@@ -109,13 +94,13 @@ def test_a_page_built_in_advance_is_the_page_a_request_builds(browser, server):
             assert linked.session_made() == "built"
             assert linked.status()["params"] == spare.status()["params"]
             assert linked.status()["mean_de"] == spare.status()["mean_de"]
-            spare.page.wait_for_timeout(300)
-            linked.page.wait_for_timeout(300)
-            for key in ("raw", "rendered", "de"):
-                a = _png(spare.page.locator(f".camsim-{key}-plot").first.screenshot(
-                    path=str(ARTIFACTS / f"spare-page-{key}.png")))
-                b = _png(linked.page.locator(f".camsim-{key}-plot").first.screenshot())
-                assert a.shape == b.shape and np.abs(a - b).mean() < 0.5, key
+            for key in ("raw", "rendered", "de"):  # once both canvases have drawn the data that arrived
+                def same(key=key):
+                    a = _png(settled_shot(spare, f".camsim-{key}-plot", name=f"spare-page-{key}"))
+                    b = _png(settled_shot(linked, f".camsim-{key}-plot"))
+                    assert a.shape == b.shape and np.abs(a - b).mean() < 0.5, key
+
+                eventually(same, timeout=30)
         finally:
             linked.close()
         before = spare.status()["mean_de"]
@@ -143,11 +128,10 @@ def test_raising_noise_raises_the_mean_de_shown(page):
 
 def test_switching_rendering_method_changes_the_rendered_image(page):
     before = page.status()
-    img_before = page.shot("rendered-baseline", ".camsim-rendered")
+    img_before = settled_shot(page, ".camsim-rendered", name="rendered-baseline")
     page.select("w-render", "illuminant")
     after = page.wait_for(lambda s: s["params"]["render_method"] == "illuminant")
-    page.page.wait_for_timeout(800)
-    img_after = page.shot("rendered-illuminant", ".camsim-rendered")
+    img_after = shot_until_changed(page, ".camsim-rendered", img_before, name="rendered-illuminant")
     assert after["rendered_hash"] != before["rendered_hash"]
     assert after["raw_hash"] == before["raw_hash"]  # the camera image itself did not change
     assert img_after != img_before  # and the picture in the page changed
@@ -163,12 +147,10 @@ def test_choosing_the_four_sensor_grid_changes_the_mosaic_view(page):
     box.fill("3 2; 1 0")
     box.press("Enter")
     custom = page.wait_for(lambda s: s["tile"] == [[3, 2], [1, 0]])
-    page.page.wait_for_timeout(800)
-    raw_custom = page.shot("mosaic-gaussian4-custom", ".camsim-raw")
+    raw_custom = settled_shot(page, ".camsim-raw", name="mosaic-gaussian4-custom")
     page.select("w-mosaic", "4-sensor grid")
     grid = page.wait_for(lambda s: s["tile"] == [[0, 1], [2, 3]] and s["params"]["mosaic"] == "4-sensor grid")
-    page.page.wait_for_timeout(800)
-    raw_grid = page.shot("mosaic-gaussian4-grid", ".camsim-raw")
+    raw_grid = shot_until_changed(page, ".camsim-raw", raw_custom, name="mosaic-gaussian4-grid")
     assert grid["raw_hash"] != custom["raw_hash"]
     assert raw_grid != raw_custom
     assert page.alert_text() == ""
@@ -258,14 +240,14 @@ def _assert_views_show_whole_image(page, tag):
             arg=[FIGURES_JS, list(IMAGE_VIEWS), [w, h]], timeout=30000)
     except PlaywrightTimeout:
         pass  # the checks below say which view holds an old image
-    page.page.wait_for_timeout(300)  # let the canvases draw the data that arrived
     figs = figures(page)
     for key in IMAGE_VIEWS:
         f = figs[f"camsim-{key}-figure"]
         assert (f["dw"], f["dh"]) == (w, h), (key, f)  # the data is the current image
         assert shows_whole_image(f, w, h), (key, f)  # and the view shows all of it
-        png = page.page.locator(f".camsim-{key}-plot").first.screenshot(path=str(ARTIFACTS / f"{tag}-{key}.png"))
-        assert background_share(png) < 0.5, f"{key} view mostly blank after {tag}"
+        # the canvas draws the data that arrived
+        shot_until(page, f".camsim-{key}-plot", lambda png: background_share(png) < 0.5,
+                   f"{key} view not mostly blank after {tag}", name=f"{tag}-{key}")
 
 
 def test_distance_there_and_back_leaves_every_view_showing_the_whole_image(page):
@@ -288,17 +270,18 @@ def test_histogram_and_de_scale_follow_the_data(page):
     highs = list(page.page.evaluate(js).values())
     assert any(abs(v - 20) > 0.5 for v in highs)  # not the fixed 0-20 scale by default
     page.page.locator(".w-de-scale button", has_text="fixed").first.click()
-    page.page.wait_for_function("() => true")
-    page.page.wait_for_timeout(1500)
-    assert 20 in list(page.page.evaluate(js).values())
+    highs = wait_until(lambda: list(page.page.evaluate(js).values()), 30, "a colour mapper's top is the fixed 20",
+                       until=lambda highs: 20 in highs)
+    assert 20 in highs
     assert s["mean_de"] > 0
     # back to the data's scale, after a change that widens it: the colour bar under the map follows
     page.page.locator(".w-de-scale button", has_text="data").first.click()
     page.type_number("w-noise", 8)
     page.wait_for(lambda st: st["params"]["noise_sigma"] == 8 and not st["computing"])
-    page.page.wait_for_timeout(500)
-    bar = page.page.evaluate("""() => { for (const m of Bokeh.documents[0]._all_models.values()) {
-        if (m.name === 'camsim-de-colorbar') return [m.x_range.end, m.renderers[0].glyph.color_mapper.high]; } }""")
+    bar = wait_until(lambda: page.page.evaluate("""() => { for (const m of Bokeh.documents[0]._all_models.values()) {
+        if (m.name === 'camsim-de-colorbar') return [m.x_range.end, m.renderers[0].glyph.color_mapper.high]; } }"""),
+                     30, "the colour bar shows the widened scale, its axis ending where the colours end",
+                     until=lambda bar: bar[1] > 25 and bar[0] == pytest.approx(bar[1]))
     assert bar[1] > 25  # noise widened the dE scale
     assert bar[0] == pytest.approx(bar[1])  # the bar's axis ends where the map's colours end
 
@@ -306,12 +289,12 @@ def test_histogram_and_de_scale_follow_the_data(page):
 # -- the page never lies --------------------------------------------------------
 def test_a_change_during_a_long_computation_ends_with_the_last_change(page):
     page.type_number("w-distance", 0.5)  # a long computation (about 20 x the pixels)
-    page.page.wait_for_timeout(150)
+    # the panes show it running (the busy mark comes once it has run 250 ms) before the next change is made
+    running = wait_until(lambda: (loading_count(page), bool(page.status().get("computing"))), 60,
+                         "the long computation shows as running", until=lambda r: r[0] > 0 or r[1])
     page.type_number("w-noise", 7)  # made while it runs
-    seen_loading = seen_computing = False
+    seen_loading, seen_computing = running[0] > 0, running[1]
     deadline = 120
-    import time
-
     t0 = time.monotonic()
     while time.monotonic() - t0 < deadline:
         s = page.status()
@@ -319,7 +302,7 @@ def test_a_change_during_a_long_computation_ends_with_the_last_change(page):
         seen_loading |= loading_count(page) > 0
         if s["params"]["distance"] == 0.5 and s["params"]["noise_sigma"] == 7 and not s["computing"]:
             break
-        page.page.wait_for_timeout(100)
+        time.sleep(POLL)
     final = page.status()
     assert final["params"]["distance"] == 0.5 and final["params"]["noise_sigma"] == 7 and not final["computing"]
     # The panes' loading state is what the user sees; the status pane's "computing" flag may be
@@ -391,40 +374,47 @@ def test_a_refused_combination_puts_the_widgets_back(page):
 
 
 # -- layout -------------------------------------------------------------------------
+LAYOUT_SELECTORS = [f".camsim-{k}-plot" for k in IMAGE_VIEWS] + [".camsim-hist", ".camsim-tabs"]
+
+
 @pytest.mark.parametrize("width, height", [(1366, 768), (1920, 1080)])
 def test_no_horizontal_scroll_and_images_use_the_width(page, width, height):
     page.page.set_viewport_size({"width": width, "height": height})
-    page.page.wait_for_timeout(800)
+
+    def check():  # once the layout has followed the resize and settled
+        *boxes, hist, tabs = stable_boxes(page, LAYOUT_SELECTORS)  # hist: the right column, below the dE map
+        assert page.page.evaluate("document.documentElement.scrollWidth") <= width
+        assert sum(b["width"] for b in boxes[:3]) > 0.55 * width  # three views per row fill the main area
+        assert all(b["x"] + b["width"] <= width for b in boxes)
+        assert hist["x"] + hist["width"] <= tabs["x"] + tabs["width"] + 1
+
+    eventually(check, timeout=30)
     page.shot(f"layout-{width}")
-    assert page.page.evaluate("document.documentElement.scrollWidth") <= width
-    boxes = [page.page.locator(f".camsim-{k}-plot").first.bounding_box() for k in IMAGE_VIEWS]
-    assert sum(b["width"] for b in boxes[:3]) > 0.55 * width  # three views per row fill the main area
-    assert all(b["x"] + b["width"] <= width for b in boxes)
-    hist = page.page.locator(".camsim-hist").first.bounding_box()  # the right column, below the dE map
-    tabs = page.page.locator(".camsim-tabs").first.bounding_box()
-    assert hist["x"] + hist["width"] <= tabs["x"] + tabs["width"] + 1
 
 
 def test_presentation_mode_has_large_type_and_images(page):
     page.page.set_viewport_size({"width": 1366, "height": 768})
-    small = page.page.locator(".camsim-rendered-plot").first.bounding_box()["width"]
+    small = stable_boxes(page, [".camsim-rendered-plot"])[0]["width"]
     page.page.locator(".w-present button").first.click()
-    page.page.wait_for_timeout(1500)
-    page.shot("presentation-mode")
     size = lambda sel: float(page.page.locator(sel).first.evaluate("e => parseFloat(getComputedStyle(e).fontSize)"))
-    assert size(".camsim-stats p") >= 18
-    assert size(".camsim-rendered-label div") >= 18 or size(".camsim-rendered-label") >= 18
-    assert size(".w-noise label") >= 18
-    assert page.page.locator(".camsim-rendered-plot").first.bounding_box()["width"] > 1.3 * small
-    assert page.page.evaluate("document.documentElement.scrollWidth") <= 1366
-    # every tab title is in sight (a second row of titles rather than one cut off at the edge)
-    tabs = page.page.locator(".camsim-tabs").first.bounding_box()
     titles = page.page.locator(".camsim-tabs .bk-tab")
-    assert titles.count() == 7
-    for i in range(titles.count()):
-        box = titles.nth(i).bounding_box()
-        assert box["x"] >= tabs["x"] - 1 and box["x"] + box["width"] <= tabs["x"] + tabs["width"] + 1, (
-            titles.nth(i).text_content(), box, tabs)
+
+    def check():  # once the page has switched to presentation mode and its layout has settled
+        assert size(".camsim-stats p") >= 18
+        assert size(".camsim-rendered-label div") >= 18 or size(".camsim-rendered-label") >= 18
+        assert size(".w-noise label") >= 18
+        rendered, tabs = stable_boxes(page, [".camsim-rendered-plot", ".camsim-tabs"])
+        assert rendered["width"] > 1.3 * small
+        assert page.page.evaluate("document.documentElement.scrollWidth") <= 1366
+        # every tab title is in sight (a second row of titles rather than one cut off at the edge)
+        assert titles.count() == 7
+        for i in range(titles.count()):
+            box = titles.nth(i).bounding_box()
+            assert box["x"] >= tabs["x"] - 1 and box["x"] + box["width"] <= tabs["x"] + tabs["width"] + 1, (
+                titles.nth(i).text_content(), box, tabs)
+
+    eventually(check, timeout=30)
+    page.shot("presentation-mode")
 
 
 def test_chart_options_make_the_chart_a_link_reproduces_and_bad_ones_are_refused(browser, page):
@@ -481,7 +471,7 @@ def _box_shows(page, css, predicate, timeout=30.0):
             return text
         if time.monotonic() > deadline:
             raise AssertionError(f"{css} shows {text!r}")
-        page.page.wait_for_timeout(100)
+        time.sleep(POLL)
 
 
 def test_sensor_fields_of_an_electron_level_camera_from_the_sidebar(browser, page):
@@ -583,27 +573,23 @@ def test_a_result_larger_than_the_screen_is_sent_averaged_and_zooming_in_fetches
             whole = pg.page.evaluate(RAW_SOURCE_JS)
             assert max(whole["shape"]) <= 120 and (whole["dw"], whole["dh"]) == (372, 233)
             assert whole["dw"] / whole["shape"][1] == pytest.approx(4, rel=0.02)  # 4 image pixels a view pixel
-            for key in ("raw", "rendered"):
-                png = pg.page.locator(f".camsim-{key}-plot").first.screenshot(path=str(ARTIFACTS / f"averaged-{key}.png"))
-                assert background_share(png) < 0.5, f"the averaged {key} view is mostly blank"
+            for key in ("raw", "rendered"):  # once the canvas has drawn the data that arrived
+                shot_until(pg, f".camsim-{key}-plot", lambda png: background_share(png) < 0.5,
+                           f"the averaged {key} view is not mostly blank", name=f"averaged-{key}")
             box = pg.page.locator(".camsim-raw-plot").first.bounding_box()
             pg.page.mouse.move(box["x"] + box["width"] * 0.4, box["y"] + box["height"] * 0.5)
             for _ in range(3):  # about three times closer: ~120 of the 372 columns in view
+                start = pg.page.evaluate(RAW_SOURCE_JS)["x_range"]
                 pg.page.mouse.wheel(0, -250)
-                pg.page.wait_for_timeout(100)
-            deadline = time.monotonic() + 30
-            while True:
-                near = pg.page.evaluate(RAW_SOURCE_JS)
-                if near["dw"] < 372 and near["dw"] / near["shape"][1] < 2:
-                    break
-                assert time.monotonic() < deadline, f"no detail arrived after zooming in: {near}"
-                pg.page.wait_for_timeout(200)
+                wait_until(lambda: pg.page.evaluate(RAW_SOURCE_JS)["x_range"], 30, "the wheel zooms the raw view in",
+                           until=lambda r: r[1] - r[0] < start[1] - start[0])
+            near = wait_until(lambda: pg.page.evaluate(RAW_SOURCE_JS), 30, "detail arrives after zooming in",
+                              until=lambda near: near["dw"] < 372 and near["dw"] / near["shape"][1] < 2)
             span = near["x_range"][1] - near["x_range"][0]
             print(f"zoomed in to {span:.0f} columns: {near}")
             assert span < 240 and near["x"] <= near["x_range"][0] and near["x"] + near["dw"] >= near["x_range"][1]
-            pg.page.wait_for_timeout(300)
-            png = pg.page.locator(".camsim-raw-plot").first.screenshot(path=str(ARTIFACTS / "zoomed-detail-raw.png"))
-            assert background_share(png) < 0.5, "the zoomed raw view is mostly blank"
+            shot_until(pg, ".camsim-raw-plot", lambda png: background_share(png) < 0.5,
+                       "the zoomed raw view is not mostly blank", name="zoomed-detail-raw")
             assert pg.errors() == []
         finally:
             pg.close()
