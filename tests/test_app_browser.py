@@ -312,48 +312,67 @@ def test_a_change_during_a_long_computation_ends_with_the_last_change(page):
     assert page.alert_text() == ""
 
 
-@pytest.mark.parametrize("css, value, name, kept", [
+REFUSED_VALUES = [
     ("w-noise", 80, "noise sigma", "0"),
     ("w-exposure", 100, "exposure", "0.1"),
     ("w-fstop", 40, "f-stop", "11"),
     ("w-distance", -1, "distance", "3.32"),
     ("w-seed", -5, "seed", "0"),
     ("w-light", 5000, "light level", "1"),
-])
-def test_a_refused_value_gets_a_message_and_the_widget_returns(page, css, value, name, kept):
-    if css == "w-seed":  # the seed acts (and is enabled) only with noise
-        page.type_number("w-noise", 2)
-        page.wait_for(lambda s: s["params"]["noise_sigma"] == 2 and not s["computing"])
-    before = page.status()
-    page.type_number(css, value)
-    page.page.locator(".camsim-alert").first.wait_for(state="visible", timeout=30000)
-    text = page.alert_text()
-    assert "Refused" in text and name in text and str(value) in text
-    box = page.page.locator(f".{css} input").first
-    page.page.wait_for_function("([el, v]) => parseFloat(el.value) === parseFloat(v)",
-                                arg=[box.element_handle(), kept], timeout=10000)
-    assert page.status()["params"] == before["params"]
+]
+
+
+def test_a_refused_value_gets_a_message_and_the_widget_returns(page):
+    """Each value in turn on one page (a refusal leaves the parameters as they were, so each starts from the
+    default page): its own message, naming the field and the value, and the widget back at the value shown."""
+    shown = ""
+    for css, value, name, kept in REFUSED_VALUES:
+        if css == "w-seed":  # the seed acts (and is enabled) only with noise
+            page.type_number("w-noise", 2)
+            page.wait_for(lambda s: s["params"]["noise_sigma"] == 2 and not s["computing"])
+        before = page.status()
+        page.type_number(css, value)
+        page.page.locator(".camsim-alert").first.wait_for(state="visible", timeout=30000)
+        # this refusal's message (the one before it may still be on screen until it replaces it)
+        text = wait_until(page.alert_text, 30, f"a message about {name} {value}",
+                          until=lambda t: t != shown and name in t and str(value) in t)
+        assert "Refused" in text and name in text and str(value) in text, css
+        box = page.page.locator(f".{css} input").first
+        page.page.wait_for_function("([el, v]) => parseFloat(el.value) === parseFloat(v)",
+                                    arg=[box.element_handle(), kept], timeout=10000)
+        assert page.status()["params"] == before["params"], css
+        shown = text
 
 
 # -- every camera and mosaic runs -------------------------------------------------
-@pytest.mark.parametrize("camera, mosaic", [("human-cones", "preset"), ("stockman-sharpe", "preset"),
-                                            ("cie1931", "preset"), ("kodak-dcs200-ir", "none")])
-def test_full_colour_cameras_run_without_demosaicing(page, camera, mosaic):
-    page.select("w-camera", camera)
-    page.select("w-mosaic", mosaic)
-    s = page.wait_for(lambda s: s["params"]["camera"] == camera and s["params"]["mosaic"] == mosaic
-                      and not s["computing"])
-    assert s["skipped"] == ["demosaic"] and s["tile"] is None and s["mean_de"] is not None
-    assert page.alert_text() == ""
-    page.page.wait_for_function(_SHOWS_TEXT, arg=["LABEL", "not needed"], timeout=10000)
-    assert page.page.locator(".w-demosaic select").first.is_disabled()
-    # the raw view's title says what it shows, and says it again when a mosaic is back
-    page.page.wait_for_function(_SHOWS_TEXT, arg=["*", "Raw, no mosaic"], timeout=10000)
-    page.select("w-camera", "kodak-dcs200-ir")
-    page.select("w-mosaic", "GRBG")
-    page.wait_for(lambda s: s["tile"] is not None and not s["computing"])
-    page.page.wait_for_function(_SHOWS_TEXT, arg=["*", "Raw mosaic"], timeout=10000)
-    assert not page.page.evaluate(_SHOWS_TEXT, ["*", "Raw, no mosaic"])
+FULL_COLOUR = [("human-cones", "preset"), ("stockman-sharpe", "preset"), ("cie1931", "preset"),
+               ("kodak-dcs200-ir", "none")]
+
+
+def test_full_colour_cameras_run_without_demosaicing(page):
+    """Each camera in turn on one page, each time from a mosaiced camera (DCS-200, GRBG) whose demosaicing
+    label and enabled demosaic control are checked first, so each full-colour run must change them again."""
+    for camera, mosaic in FULL_COLOUR:
+        page.select("w-camera", camera)
+        page.select("w-mosaic", mosaic)
+        s = page.wait_for(lambda s: s["params"]["camera"] == camera and s["params"]["mosaic"] == mosaic
+                          and not s["computing"])
+        assert s["skipped"] == ["demosaic"] and s["tile"] is None and s["mean_de"] is not None, camera
+        assert page.alert_text() == "", camera
+        page.page.wait_for_function(_SHOWS_TEXT, arg=["LABEL", "not needed"], timeout=10000)
+        assert page.page.locator(".w-demosaic select").first.is_disabled(), camera
+        # the raw view's title says what it shows, and says it again when a mosaic is back
+        page.page.wait_for_function(_SHOWS_TEXT, arg=["*", "Raw, no mosaic"], timeout=10000)
+        page.select("w-camera", "kodak-dcs200-ir")
+        page.select("w-mosaic", "GRBG")
+        page.wait_for(lambda s: s["params"]["camera"] == "kodak-dcs200-ir" and s["params"]["mosaic"] == "GRBG"
+                      and s["tile"] is not None and not s["computing"])
+        page.page.wait_for_function(_SHOWS_TEXT, arg=["*", "Raw mosaic"], timeout=10000)
+        assert not page.page.evaluate(_SHOWS_TEXT, ["*", "Raw, no mosaic"]), camera
+        # back to a camera that demosaics: the next camera's checks are its own
+        page.page.wait_for_function(f"() => !({_SHOWS_TEXT})(['LABEL', 'not needed'])", timeout=10000)
+        page.page.wait_for_function("el => !el.disabled",
+                                    arg=page.page.locator(".w-demosaic select").first.element_handle(), timeout=10000)
 
 
 #: Whether an element (a tag name, or "*") anywhere in the page, shadow roots included, shows a text.
@@ -377,19 +396,20 @@ def test_a_refused_combination_puts_the_widgets_back(page):
 LAYOUT_SELECTORS = [f".camsim-{k}-plot" for k in IMAGE_VIEWS] + [".camsim-hist", ".camsim-tabs"]
 
 
-@pytest.mark.parametrize("width, height", [(1366, 768), (1920, 1080)])
-def test_no_horizontal_scroll_and_images_use_the_width(page, width, height):
-    page.page.set_viewport_size({"width": width, "height": height})
+def test_no_horizontal_scroll_and_images_use_the_width(page):
+    """Each window size in turn on one page (the layout follows every resize)."""
+    for width, height in [(1366, 768), (1920, 1080)]:
+        page.page.set_viewport_size({"width": width, "height": height})
 
-    def check():  # once the layout has followed the resize and settled
-        *boxes, hist, tabs = stable_boxes(page, LAYOUT_SELECTORS)  # hist: the right column, below the dE map
-        assert page.page.evaluate("document.documentElement.scrollWidth") <= width
-        assert sum(b["width"] for b in boxes[:3]) > 0.55 * width  # three views per row fill the main area
-        assert all(b["x"] + b["width"] <= width for b in boxes)
-        assert hist["x"] + hist["width"] <= tabs["x"] + tabs["width"] + 1
+        def check():  # once the layout has followed the resize and settled
+            *boxes, hist, tabs = stable_boxes(page, LAYOUT_SELECTORS)  # hist: the right column, below the dE map
+            assert page.page.evaluate("document.documentElement.scrollWidth") <= width
+            assert sum(b["width"] for b in boxes[:3]) > 0.55 * width, width  # three views per row fill the main area
+            assert all(b["x"] + b["width"] <= width for b in boxes), width
+            assert hist["x"] + hist["width"] <= tabs["x"] + tabs["width"] + 1, width
 
-    eventually(check, timeout=30)
-    page.shot(f"layout-{width}")
+        eventually(check, timeout=30)
+        page.shot(f"layout-{width}")
 
 
 def test_presentation_mode_has_large_type_and_images(page):
