@@ -4,24 +4,10 @@ a file within it arrives in pieces and is selected. ``camsim serve --no-upload``
 import numpy as np
 import pytest
 
-from app_helpers import ARTIFACTS, CHROMIUM_ARGS, Page, chromium_path, explorer_server
+from app_helpers import ARTIFACTS, Page, explorer_server, wait_until
 from camsim_core.scene import Scene, save_npz_scene
 
 pytestmark = pytest.mark.browser
-
-
-@pytest.fixture(scope="module")
-def browser():
-    try:
-        path = chromium_path()
-    except RuntimeError as exc:
-        pytest.fail(str(exc))
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
-        yield b
-        b.close()
 
 
 def _file_input(page):
@@ -37,15 +23,9 @@ def test_upload_over_the_cap_gets_a_message_and_the_page_stays_connected(browser
     with explorer_server(extra_args=["--max-upload-mb", "3"]) as url:
         page = Page(browser, url)
         _file_input(page).set_input_files(str(tmp_path / "big.npz"))
-        page.page.wait_for_function("() => true")
-        deadline_text = ""
-        for _ in range(100):
-            deadline_text = page.alert_text()
-            if deadline_text:
-                break
-            page.page.wait_for_timeout(100)
+        text = wait_until(page.alert_text, what="a message about the upload over the cap")
         page.shot("upload-over-cap")
-        assert "Upload refused: big.npz: is 5.0 MiB, more than the 3.0 MiB an upload may be" in deadline_text
+        assert "Upload refused: big.npz: is 5.0 MiB, more than the 3.0 MiB an upload may be" in text
         # still connected: a change still reaches the server and comes back
         page.type_number("w-noise", 3)
         s = page.wait_for(lambda s: s["params"]["noise_sigma"] == 3)
