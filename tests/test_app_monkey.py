@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from app_helpers import (ARTIFACTS, CHROMIUM_ARGS, FIGURES_JS, IMAGE_VIEWS, Page, chromium_path, explorer_server,
-                         figures, shows_whole_image)
+from app_helpers import (ARTIFACTS, CHROMIUM_ARGS, FIGURES_JS, IMAGE_VIEWS, Page, chromium_path, eventually,
+                         explorer_server, figures, next_frames, shows_whole_image)
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
 pytestmark = pytest.mark.browser
@@ -89,22 +89,28 @@ def _views_show_the_image(page, status, step, settle=20.0):
             arg=[FIGURES_JS, list(IMAGE_VIEWS), [w, h]], timeout=settle * 1000)
     except PlaywrightTimeout:
         pass
-    figs = figures(page)
-    png = Image.open(io.BytesIO(page.page.screenshot()))
-    page_rgb = np.asarray(png.convert("RGB"), int)
-    for key in IMAGE_VIEWS:
-        f = figs[f"camsim-{key}-figure"]
-        assert (f["dw"], f["dh"]) == (w, h), f"step {step}: {key} holds an old image {f}"
-        assert shows_whole_image(f, w, h), f"step {step}: {key} does not show the whole image {f}"
-        box = page.page.locator(f".camsim-{key}-plot").first.bounding_box()
-        x0, y0 = int(box["x"]), int(box["y"])
-        crop = page_rgb[y0:y0 + int(box["height"]), x0:x0 + int(box["width"])]
-        assert crop.size, f"step {step}: {key} view is off screen"
-        blank = float(np.mean(np.all(np.abs(crop - 255) <= 8, axis=-1)))
-        # a view of a saturated camera image is white where it clips (the warning line says so): the
-        # camera's views may then look like the background; the ideal image and the dE map may not
-        saturated = status["clipped"] > 0.25 and key in ("raw", "demosaiced", "rendered")
-        assert blank < 0.5 or saturated, f"step {step}: {key} view is {100 * blank:.0f} % background"
+
+    def check():
+        figs = figures(page)
+        next_frames(page)  # what arrived is drawn
+        png = Image.open(io.BytesIO(page.page.screenshot()))
+        page_rgb = np.asarray(png.convert("RGB"), int)
+        for key in IMAGE_VIEWS:
+            f = figs[f"camsim-{key}-figure"]
+            assert (f["dw"], f["dh"]) == (w, h), f"step {step}: {key} holds an old image {f}"
+            assert shows_whole_image(f, w, h), f"step {step}: {key} does not show the whole image {f}"
+            box = page.page.locator(f".camsim-{key}-plot").first.bounding_box()
+            x0, y0 = int(box["x"]), int(box["y"])
+            crop = page_rgb[y0:y0 + int(box["height"]), x0:x0 + int(box["width"])]
+            assert crop.size, f"step {step}: {key} view is off screen"
+            blank = float(np.mean(np.all(np.abs(crop - 255) <= 8, axis=-1)))
+            # a view of a saturated camera image is white where it clips (the warning line says so): the
+            # camera's views may then look like the background; the ideal image and the dE map may not
+            saturated = status["clipped"] > 0.25 and key in ("raw", "demosaiced", "rendered")
+            assert blank < 0.5 or saturated, f"step {step}: {key} view is {100 * blank:.0f} % background"
+
+    # the canvases draw the data that arrived (a view that never draws it fails after the bounded time)
+    eventually(check, timeout=settle)
 
 
 def test_random_walk_over_the_controls():
@@ -192,7 +198,6 @@ def test_random_walk_over_the_controls():
                     expected["sensor"] = ""
                 assert s["params"] == expected, f"step {step}: computed {s['params']} != set {expected}"
                 walked.append(key if key != "sensor" else field)
-                page.page.wait_for_timeout(200)
                 _views_show_the_image(page, s, step)
                 if step % 25 == 0 or step == STEPS:
                     page.shot(f"monkey-{step:03d}")
