@@ -6,11 +6,9 @@ value that used to raise in the server gets a message naming the field. HTTP and
 items are in ``tests/test_server_hostile.py``.
 """
 
-import time
-
 import pytest
 
-from app_helpers import ARTIFACTS, TIMEOUT, Page, explorer_server, server_log
+from app_helpers import ARTIFACTS, Page, explorer_server, server_log, wait_until
 
 pytestmark = pytest.mark.browser
 
@@ -58,14 +56,6 @@ def _rss(pid):
     raise AssertionError("no VmRSS")
 
 
-def _wait(condition, what, timeout=TIMEOUT):
-    deadline = time.monotonic() + timeout
-    while not condition():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"never: {what}")
-        time.sleep(0.2)
-
-
 def test_a_page_script_cannot_lift_the_upload_cap(browser, tmp_path):
     ARTIFACTS.mkdir(exist_ok=True)
     big = tmp_path / "big.npz"
@@ -85,7 +75,7 @@ def test_a_page_script_cannot_lift_the_upload_cap(browser, tmp_path):
             # the page sends the whole file (its note empties when done); then a round trip through the same
             # websocket: the server has read every piece before it answers
             note = page.page.locator(".w-upload .bounded-upload-note").first
-            _wait(lambda: note.text_content() == "", "the page sent the whole file")
+            wait_until(lambda: note.text_content() == "", what="the page sent the whole file")
             page.page.locator(".w-diagnostics input").first.check()
             page.page.locator(".camsim-status").first.wait_for(state="visible")
             grew = _rss(procs[0].pid) - before

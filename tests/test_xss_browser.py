@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 import scipy.io
 
-from app_helpers import ARTIFACTS, TIMEOUT, explorer_server
+from app_helpers import ARTIFACTS, POLL, TIMEOUT, explorer_server
 from app.state import COMPARE_PARAMETERS, URL_PARAMETERS
 
 pytestmark = pytest.mark.browser
@@ -129,7 +129,7 @@ class Tab:
                 return text
             if time.monotonic() > deadline:
                 raise AssertionError(f"{css} never showed {needle!r}; it shows {text[:500]!r}")
-            self.page.wait_for_timeout(150)
+            self.page.wait_for_timeout(POLL * 1000)
 
     def status(self):
         try:
@@ -145,7 +145,7 @@ class Tab:
                 return s
             if time.monotonic() > deadline:
                 raise AssertionError(f"the status never satisfied the condition; last: {s}")
-            self.page.wait_for_timeout(150)
+            self.page.wait_for_timeout(POLL * 1000)
 
     def open_tab(self, title):
         self.page.locator(".bk-tab").filter(has_text=title).first.click()
