@@ -996,11 +996,13 @@ class SceneView:
         self.rgb_source = ColumnDataSource(dict(image=[np.zeros((2, 2), np.uint32)], x=[0], y=[0], dw=[2], dh=[2]))
         self.plane_source = ColumnDataSource(dict(image=[np.zeros((2, 2), np.float32)], x=[0], y=[0], dw=[2], dh=[2]))
         self.marks = ColumnDataSource(dict(x=[], y=[], text=[], color=[], w=[], h=[]))
-        self.plane_mapper = LinearColorMapper(palette=Greys256[::-1], low=0, high=1)
+        self.plane_mapper = LinearColorMapper(palette=Greys256, low=0, high=1)  # black at 0, white at the maximum
         self.figures = {}
         for key in ("rgb", "plane"):
             fig = _image_figure(self.x_range, self.y_range, f"camsim-scene-{key}-figure", self.shape)
-            fig.add_tools(TapTool(), BoxSelectTool())
+            box = BoxSelectTool()
+            fig.add_tools(TapTool(), box)
+            fig.toolbar.active_drag = box  # "drag a box" selects a region (a drag panned the image)
             if key == "rgb":
                 r = fig.image_rgba(image="image", x="x", y="y", dw="dw", dh="dh", source=self.rgb_source)
                 fig.add_tools(HoverTool(renderers=[r], tooltips=[("x, y", "$x{0}, $y{0}"), ("sRGB", "@image{custom}")],

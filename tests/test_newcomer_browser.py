@@ -74,3 +74,56 @@ def test_image_quality_tab_opened_before_the_chart_follows_it(browser, server):
         assert "Traceback" not in server_log(server) and "AttributeError" not in server_log(server)
     finally:
         page.close()
+
+
+# the scene tab's radiance plane: its colour mapper's colours at its low and high ends, as the browser has them
+_PLANE_MAPPER = """() => {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
+    if (m.constructor && m.constructor.__name__ === 'Figure' && m.name === 'camsim-scene-plane-figure') {
+      for (const r of m.renderers) {
+        if (r.glyph && r.glyph.constructor.__name__ === 'Image') {
+          const p = r.glyph.color_mapper.palette;
+          return [String(p[0]), String(p[p.length - 1])];
+        }
+      }
+    }
+  }
+  return null;
+}"""
+_SPECTRA = """() => {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
+    if (m.constructor && m.constructor.__name__ === 'ColumnDataSource' && 'xs' in m.data && 'label' in m.data)
+      return Array.from(m.data.label);
+  }
+  return null;
+}"""
+
+
+def _grey(colour):
+    colour = colour.lstrip("#")
+    return sum(int(colour[i:i + 2], 16) for i in (0, 2, 4)) / 3
+
+
+def test_radiance_plane_is_not_a_negative_and_a_dragged_box_adds_a_region_spectrum(browser, server):
+    """Defect 5: the radiance plane's grey scale ran white at 0 to black at the maximum. Defect 4: "drag a box"
+    panned the image, so no region spectrum was added."""
+    page = Page(browser, server)
+    try:
+        page.page.locator(".bk-tab").filter(has_text="Scene").first.click()
+        ends = _until(lambda: page.page.evaluate(_PLANE_MAPPER), "the radiance plane's colour mapper")
+        assert _grey(ends[0]) < _grey(ends[1]), f"0 is drawn {ends[0]}, the maximum {ends[1]}"
+        plane = page.page.locator(".camsim-scene-plane .bk-Canvas, .camsim-scene-plane canvas").first
+        plane.wait_for(state="visible")
+        box = _until(plane.bounding_box, "the plane's canvas laid out")
+        before = page.page.evaluate(_SPECTRA) or []
+        x0, y0 = box["x"] + 0.3 * box["width"], box["y"] + 0.3 * box["height"]
+        page.page.mouse.move(x0, y0)
+        page.page.mouse.down()
+        page.page.mouse.move(x0 + 0.2 * box["width"], y0 + 0.2 * box["height"], steps=8)
+        page.page.mouse.up()
+        labels = _until(lambda: (v := page.page.evaluate(_SPECTRA)) and len(v) > len(before) and v,
+                        "a region spectrum after dragging a box")
+        assert "mean of rows" in labels[-1], labels
+        page.shot("scene-tab-region-spectrum")
+    finally:
+        page.close()
