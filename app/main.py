@@ -34,7 +34,7 @@ from .compare import compare_tab
 from .physical import SensorControls
 from .quality import QualityView
 from .safe_text import md_text
-from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, ExplorerState, Runner
+from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, VIEW_PARAMETERS, ExplorerState, Runner
 from .upload import BoundedUpload
 from .views import CameraView, ResultsView, SceneView, Text, _after, once, when_page_ready
 
@@ -629,7 +629,7 @@ def create_app(scene=None):
         else:
             if not _offer_linked_chart(state, pn.state.location.search):
                 chart_refused.append(state.message)
-            _sync_address(state, URL_PARAMETERS + COMPARE_PARAMETERS, on_error)
+            _sync_address(state, URL_PARAMETERS + VIEW_PARAMETERS + COMPARE_PARAMETERS, on_error)
     views = {"state": state}
     views["results"] = results = ResultsView(state)
     # the messages quote what users typed, linked or uploaded: shown as text (``md_text``), never as markup

@@ -49,6 +49,7 @@ from camsim_core.review.sweep import check_sweep
 from camsim_core.metrics.viewing import parse_viewing
 
 __all__ = ["ExplorerState", "Runner", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_PARAMETERS", "COMPARE_PARAMETERS",
+           "VIEW_PARAMETERS",
            "parse_tile", "parse_numbers", "load_upload", "ServerLimits", "LIMITS", "json_depth", "exposure_warnings",
            "mean_level"]
 
@@ -63,6 +64,8 @@ URL_PARAMETERS = (
 )
 #: The comparison's part of the shareable state: pinned designs and the sweep (see app.compare).
 COMPARE_PARAMETERS = ("pinned", "sweep")
+#: How the result is shown, kept in links and parameters files beside the design (not part of it).
+VIEW_PARAMETERS = ("de_scale",)
 
 
 from camsim_core.scene.charts import CHART_NAMES as _CHART_NAMES  # noqa: E402
@@ -846,7 +849,8 @@ class ExplorerState(param.Parameterized):
     # -- reproducible state ----------------------------------------------------
     def to_dict(self):
         """The parameters as plain JSON values (with the pinned designs and the sweep)."""
-        return {**self.design_params(), "pinned": list(self.pinned), "sweep": self.sweep}
+        return {**self.design_params(), **{p: getattr(self, p) for p in VIEW_PARAMETERS},
+                "pinned": list(self.pinned), "sweep": self.sweep}
 
     def to_json(self):
         return json.dumps(self.to_dict(), indent=2)
@@ -875,7 +879,7 @@ class ExplorerState(param.Parameterized):
             self.message = (f"Parameters file refused: {bad[:200]}: numbers must be finite (no NaN or Infinity) "
                             "and of at most 100 digits")
             return False
-        unknown = sorted(set(values) - set(URL_PARAMETERS) - set(COMPARE_PARAMETERS))
+        unknown = sorted(set(values) - set(URL_PARAMETERS) - set(COMPARE_PARAMETERS) - set(VIEW_PARAMETERS))
         if unknown:
             self.message = f"Parameters file has unknown entries: {', '.join(unknown)[:200]}"
             return False

@@ -127,3 +127,30 @@ def test_radiance_plane_is_not_a_negative_and_a_dragged_box_adds_a_region_spectr
         page.shot("scene-tab-region-spectrum")
     finally:
         page.close()
+
+
+def test_the_fixed_de_scale_is_kept_in_the_link_and_the_parameters_file(browser, server):
+    """Defect 10: the fixed 0-20 dE colour scale was lost by a link and by the parameters file."""
+    from urllib.parse import parse_qs, urlparse
+
+    from app.state import ExplorerState
+
+    page = Page(browser, server)
+    try:
+        page.page.locator(".w-de-scale button", has_text="fixed").first.click()
+        href = lambda: page.page.evaluate("window.location.href")  # noqa: E731 (Playwright's page.url lags replaceState)
+        url = _until(lambda: "de_scale=" in href() and href(), "the address holding the dE scale")
+        assert parse_qs(urlparse(url).query)["de_scale"] == ["fixed 0-20"]
+        linked = Page(browser, url)
+        try:
+            active = lambda: linked.page.locator(".w-de-scale button.bk-active").first.inner_text()  # noqa: E731
+            assert _until(lambda: "fixed" in active() and active(), "the linked page's fixed dE scale")
+        finally:
+            linked.close()
+    finally:
+        page.close()
+    state = ExplorerState(start=False)
+    state.de_scale = "fixed 0-20"
+    again = ExplorerState(start=False)
+    assert again.from_json(state.to_json()), again.message
+    assert again.de_scale == "fixed 0-20"
