@@ -7,7 +7,7 @@ import time
 import numpy as np
 import pytest
 
-from app_helpers import ARTIFACTS, CHROMIUM_ARGS, TIMEOUT, Page, chromium_path, explorer_server
+from app_helpers import ARTIFACTS, POLL, TIMEOUT, Page, eventually, explorer_server, next_frames
 from camsim_core.review import evaluate_design
 
 pytestmark = pytest.mark.browser
@@ -21,20 +21,6 @@ def server():
     ARTIFACTS.mkdir(exist_ok=True)
     with explorer_server() as url:
         yield url
-
-
-@pytest.fixture(scope="module")
-def browser():
-    try:
-        path = chromium_path()
-    except RuntimeError as exc:
-        pytest.fail(str(exc))
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
-        yield b
-        b.close()
 
 
 def compare_status(page):
@@ -53,7 +39,7 @@ def wait_compare(page, predicate, timeout=3 * TIMEOUT):
             return s
         if time.monotonic() > deadline:
             raise AssertionError(f"the comparison never satisfied the condition; last: {s}")
-        time.sleep(0.3)
+        time.sleep(POLL)
 
 
 def open_tab(page):
@@ -107,28 +93,31 @@ _FIGURES = """() => {
 def test_two_pinned_designs_side_by_side(compared, engine):
     page = compared
     s = compare_status(page)
-    time.sleep(1.0)
-    figures = page.page.evaluate(_FIGURES)
-    rendered = [k for k in figures if k.endswith(": rendered")]
-    maps = [k for k in figures if k.endswith(" dE") and ":" in k]
-    assert sorted(rendered) == ["DCS-200: rendered", "human cones: rendered"]
-    assert page.page.locator(".camsim-compare-rendered").filter(has=page.page.locator("canvas")).count() >= 2
-    # shared zoom and pan: one x range and one y range for every image view
-    ranges = {(figures[k]["x"], figures[k]["y"]) for k in rendered + maps}
-    assert len(ranges) == 1
-    # ... showing the whole image (not the corner of a placeholder's extent)
-    h, w = next(iter(engine.values())).shape
-    xr, yr = figures[rendered[0]]["xr"], figures[rendered[0]]["yr"]
-    assert xr[0] <= 0.05 * w and xr[1] >= 0.95 * w and yr[0] <= 0.05 * h and yr[1] >= 0.95 * h, (xr, yr, w, h)
-    # one colour scale for every dE map
-    assert len({tuple(m) for k in maps for m in figures[k]["mappers"]}) == 1
-    # two histogram curves, each labelled with its mean and median
-    hist = next(v for k, v in figures.items() if k.startswith("Overlaid"))
-    labels = [lab for lab in hist["legend"] if lab]
-    assert len(labels) == 2
-    for (name, r), label in zip(engine.items(), labels):
-        m = r.measures["cielab"]
-        assert label == f"{name}: mean {m['mean']:.2f}, median {m['median']:.2f}"
+
+    def check_figures():  # once the browser has the comparison's figures (they follow the status)
+        figures = page.page.evaluate(_FIGURES)
+        rendered = [k for k in figures if k.endswith(": rendered")]
+        maps = [k for k in figures if k.endswith(" dE") and ":" in k]
+        assert sorted(rendered) == ["DCS-200: rendered", "human cones: rendered"]
+        assert page.page.locator(".camsim-compare-rendered").filter(has=page.page.locator("canvas")).count() >= 2
+        # shared zoom and pan: one x range and one y range for every image view
+        ranges = {(figures[k]["x"], figures[k]["y"]) for k in rendered + maps}
+        assert len(ranges) == 1
+        # ... showing the whole image (not the corner of a placeholder's extent)
+        h, w = next(iter(engine.values())).shape
+        xr, yr = figures[rendered[0]]["xr"], figures[rendered[0]]["yr"]
+        assert xr[0] <= 0.05 * w and xr[1] >= 0.95 * w and yr[0] <= 0.05 * h and yr[1] >= 0.95 * h, (xr, yr, w, h)
+        # one colour scale for every dE map
+        assert len({tuple(m) for k in maps for m in figures[k]["mappers"]}) == 1
+        # two histogram curves, each labelled with its mean and median
+        hist = next(v for k, v in figures.items() if k.startswith("Overlaid"))
+        labels = [lab for lab in hist["legend"] if lab]
+        assert len(labels) == 2
+        for (name, r), label in zip(engine.items(), labels):
+            m = r.measures["cielab"]
+            assert label == f"{name}: mean {m['mean']:.2f}, median {m['median']:.2f}"
+
+    eventually(check_figures, timeout=30)
     # the table: the camera difference and two different mean dEs, equal to the engine's for each design alone
     assert s["differ"] == ["camera"]
     for d in s["designs"]:
@@ -139,6 +128,7 @@ def test_two_pinned_designs_side_by_side(compared, engine):
     assert "kodak-dcs200-ir" in table and "human-cones" in table
     assert all(f"{m:.2f}" in table for m in means)
     assert page.errors() == []
+    next_frames(page)  # the figures checked above are drawn
     page.shot("compare-two-designs")
     page.page.locator(".camsim-tabs").first.screenshot(path=str(ARTIFACTS / "compare-tab.png"))  # docs/compare.png
 
@@ -168,21 +158,26 @@ def test_sweep_of_noise_gives_one_curve_per_design_with_the_engines_points(compa
     box.press("Enter")
     page.page.locator(".w-sweep-run button").first.click()
     s = wait_compare(page, lambda s: s["sweep"] and len(s["sweep"]["points"]) == 2 * len(SIGMAS), timeout=240)
-    time.sleep(1.5)
-    page.shot("compare-sweep")
-    figures = page.page.evaluate(_FIGURES)
-    plot = next(v for k, v in figures.items() if k.startswith("Mean CIELAB dE against"))
-    assert len(plot["scatters"]) == 2  # two curves (points drawn as scatter over the lines)
-    shown = sorted((tuple(c["x"]), tuple(c["y"])) for c in plot["scatters"])
     expected = []
     for name, cam in CAMERAS.items():
         ys = [evaluate_design({"camera": cam, "noise_sigma": v}, name, metrics=("cielab",)).measures["cielab"]["mean"]
               for v in SIGMAS]
         expected.append((tuple(SIGMAS), tuple(ys)))
     expected.sort()
-    for (xs, ys), (ex, ey) in zip(shown, expected):
-        assert list(xs) == list(ex) and ys == pytest.approx(ey, rel=1e-12, abs=1e-12)
-    assert "Done: 10 points" in page.text(".camsim-sweep-message")
+
+    def check_plot():  # once the browser has the sweep's plot (it follows the status)
+        figures = page.page.evaluate(_FIGURES)
+        plot = next((v for k, v in figures.items() if k.startswith("Mean CIELAB dE against")), None)
+        assert plot is not None, "no sweep plot"
+        assert len(plot["scatters"]) == 2  # two curves (points drawn as scatter over the lines)
+        shown = sorted((tuple(c["x"]), tuple(c["y"])) for c in plot["scatters"])
+        for (xs, ys), (ex, ey) in zip(shown, expected):
+            assert list(xs) == list(ex) and ys == pytest.approx(ey, rel=1e-12, abs=1e-12)
+        assert "Done: 10 points" in page.text(".camsim-sweep-message")
+
+    eventually(check_plot, timeout=30)
+    next_frames(page)  # the plot checked above is drawn
+    page.shot("compare-sweep")
     assert page.errors() == []
 
 
