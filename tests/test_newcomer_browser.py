@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import time
-
 import pytest
 
-from app_helpers import ARTIFACTS, TIMEOUT, Page, explorer_server, server_log
+from app_helpers import ARTIFACTS, Page, explorer_server, server_log, wait_until
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -33,15 +31,8 @@ def server():
         yield url
 
 
-def _until(fn, what, timeout=TIMEOUT):
-    deadline = time.monotonic() + timeout
-    while True:
-        value = fn()
-        if value:
-            return value
-        if time.monotonic() > deadline:
-            raise AssertionError(f"never happened: {what}")
-        time.sleep(0.1)
+def _until(fn, what):
+    return wait_until(fn, what=what)
 
 
 def test_image_quality_tab_opened_before_the_chart_follows_it(browser, server):
