@@ -65,7 +65,7 @@ URL_PARAMETERS = (
 #: The comparison's part of the shareable state: pinned designs and the sweep (see app.compare).
 COMPARE_PARAMETERS = ("pinned", "sweep")
 #: How the result is shown, kept in links and parameters files beside the design (not part of it).
-VIEW_PARAMETERS = ("de_scale",)
+VIEW_PARAMETERS = tuple(_design.VIEW_SETTINGS)
 
 
 from camsim_core.scene.charts import CHART_NAMES as _CHART_NAMES  # noqa: E402

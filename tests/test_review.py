@@ -140,6 +140,11 @@ def test_design_file_with_pinned_designs_and_a_sweep(tmp_path):
     assert designs[1][1]["noise_sigma"] == 2.0 and designs[0][1]["scene"] == "cacaphony290"
     assert sweep == {"parameter": "noise_sigma", "values": [0.0, 1.0]}
     assert differing_parameters([p for _, p in designs]) == ["camera", "noise_sigma"]
+    # the explorer's view settings are read beside the design, and a bad one is refused by name
+    assert saved["de_scale"] == "data"
+    path.write_text(json.dumps(dict(saved, de_scale="upside down")))
+    with pytest.raises(ParameterError, match="de_scale"):
+        read_design_file(path)
 
 
 def test_report_html_holds_the_numbers_and_only_embedded_images(dcs, cones):

@@ -551,6 +551,11 @@ def differing_parameters(designs, skip=("wavelength", "metric")):
     return [k for k in DESIGN_PARAMETERS if k not in skip and len({json.dumps(f[k]) for f in full}) > 1]
 
 
+#: How an explorer parameters file says its result is shown, beside the design (not part of it): each name
+#: with the values it may take. Read and checked, then left out of the designs.
+VIEW_SETTINGS = {"de_scale": ("data", "fixed 0-20")}
+
+
 def read_design_file(path):
     """The designs and the sweep an explorer parameter file holds.
 
@@ -573,6 +578,9 @@ def read_design_file(path):
     values = dict(values)
     pinned = values.pop("pinned", None) or []
     sweep = values.pop("sweep", None) or None
+    for name, allowed in VIEW_SETTINGS.items():
+        if name in values and values.pop(name) not in allowed:
+            raise ParameterError(f"{path}: {name}", f"expected one of {', '.join(allowed)}")
     own = check_params(values, str(path))
     shared = {k: own[k] for k in _SHARED}  # the scene and viewing of the file's comparison
     designs = [(e["name"], {**e["params"], **shared}) for e in check_pinned(pinned, f"{path}: pinned")]
