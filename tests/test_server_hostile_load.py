@@ -44,7 +44,7 @@ pytestmark = [
     pytest.mark.browser,
     pytest.mark.slow,
     pytest.mark.skipif(os.environ.get("CAMSIM_LOAD_TEST") != "1",
-                       reason="the hostile load test drives 11 browser sessions for minutes: run with CAMSIM_LOAD_TEST=1"),
+                       reason="the hostile load test drives 10 websocket sessions and an uploading page for about a minute, with goals on the machine's timing: run with CAMSIM_LOAD_TEST=1 on a quiet machine"),
 ]
 
 IDLE_S = 2.0
