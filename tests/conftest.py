@@ -46,3 +46,13 @@ def browser():
         b = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
         yield b
         b.close()
+
+
+@pytest.fixture(scope="module")
+def server():
+    """``camsim serve`` on 127.0.0.1, one per test module (files that need other flags start their own)."""
+    from app_helpers import ARTIFACTS, explorer_server
+
+    ARTIFACTS.mkdir(exist_ok=True)
+    with explorer_server() as url:
+        yield url

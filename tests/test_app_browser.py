@@ -16,13 +16,6 @@ from app_helpers import (ARTIFACTS, FIGURES_JS, IMAGE_VIEWS, POLL, Page, backgro
 pytestmark = pytest.mark.browser
 
 
-@pytest.fixture(scope="module")
-def server():
-    ARTIFACTS.mkdir(exist_ok=True)
-    with explorer_server() as url:
-        yield url
-
-
 @pytest.fixture
 def page(browser, server):
     pg = Page(browser, server)

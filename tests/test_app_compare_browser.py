@@ -7,20 +7,13 @@ import time
 import numpy as np
 import pytest
 
-from app_helpers import ARTIFACTS, POLL, TIMEOUT, Page, eventually, explorer_server, next_frames
+from app_helpers import ARTIFACTS, POLL, TIMEOUT, Page, eventually, next_frames
 from camsim_core.review import evaluate_design
 
 pytestmark = pytest.mark.browser
 
 CAMERAS = {"DCS-200": "kodak-dcs200-ir", "human cones": "human-cones"}
 SIGMAS = [0.0, 2.0, 4.0, 6.0, 8.0]
-
-
-@pytest.fixture(scope="module")
-def server():
-    ARTIFACTS.mkdir(exist_ok=True)
-    with explorer_server() as url:
-        yield url
 
 
 def compare_status(page):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from app_helpers import ARTIFACTS, Page, explorer_server, server_log, wait_until
+from app_helpers import Page, server_log, wait_until
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -22,13 +22,6 @@ _MTF_LINES = """() => {
   }
   return out;
 }"""
-
-
-@pytest.fixture(scope="module")
-def server():
-    ARTIFACTS.mkdir(exist_ok=True)
-    with explorer_server() as url:
-        yield url
 
 
 def _until(fn, what):

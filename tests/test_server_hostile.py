@@ -24,7 +24,7 @@ import app.main  # noqa: F401  (installs the explorer's reading of link values)
 from app import state as state_module
 from app.state import ExplorerState
 from app.upload import BoundedUpload
-from app_helpers import ARTIFACTS, explorer_server, server_log
+from app_helpers import server_log
 from camsim_core.cli.serve import OTHER_HOST_MESSAGE, allowed_origins, host_allowed
 
 MiB = 2**20
@@ -191,13 +191,6 @@ def test_the_hosts_allowed_are_the_servers_own_names_with_the_port():
     lan = allowed_origins("0.0.0.0", 80, ["review.example.org"])
     assert host_allowed("review.example.org", lan) and host_allowed("review.example.org:80", lan)
     assert not host_allowed("evil.example", lan)
-
-
-@pytest.fixture(scope="module")
-def server():
-    ARTIFACTS.mkdir(exist_ok=True)
-    with explorer_server() as url:
-        yield url
 
 
 def _get(url, path, host):

@@ -90,13 +90,6 @@ def test_a_page_script_cannot_lift_the_upload_cap(browser, tmp_path):
             page.close()
 
 
-@pytest.fixture(scope="module")
-def server():
-    ARTIFACTS.mkdir(exist_ok=True)
-    with explorer_server() as url:
-        yield url
-
-
 def test_a_five_thousand_digit_link_value_gets_a_message_naming_it(browser, server):
     page = Page(browser, server + "?seed=" + "9" * 5000 + "&noise_sigma=2")
     try:

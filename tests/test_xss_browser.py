@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 import scipy.io
 
-from app_helpers import ARTIFACTS, POLL, TIMEOUT, explorer_server
+from app_helpers import ARTIFACTS, POLL, TIMEOUT
 from app.state import COMPARE_PARAMETERS, URL_PARAMETERS
 
 pytestmark = pytest.mark.browser
@@ -92,13 +92,6 @@ INJECTED_JS = """() => {
   walk(document);
   return found;
 }"""
-
-
-@pytest.fixture(scope="module")
-def server():
-    ARTIFACTS.mkdir(exist_ok=True)
-    with explorer_server() as url:
-        yield url
 
 
 class Tab:
