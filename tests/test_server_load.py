@@ -24,7 +24,7 @@ import time
 import psutil
 import pytest
 
-from app_helpers import ARTIFACTS, CHROMIUM_ARGS, Page, chromium_path, explorer_server
+from app_helpers import ARTIFACTS, Page, explorer_server
 
 pytestmark = [
     pytest.mark.browser,
@@ -66,20 +66,6 @@ def _shown_after(pg, value, sent):
     times = [t - sent for t, v in shown if v is not None and abs(v - value) < 1e-9 and t >= sent]
     assert times, f"the page noted no result for noise {value} after its change (noted: {shown[-3:]})"
     return min(times)
-
-
-@pytest.fixture(scope="module")
-def browser():
-    try:
-        path = chromium_path()
-    except RuntimeError as exc:
-        pytest.fail(str(exc))
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=path, args=CHROMIUM_ARGS)
-        yield b
-        b.close()
 
 
 @pytest.fixture
