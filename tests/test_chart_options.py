@@ -20,6 +20,7 @@ NUMERIC = {
     "uniform": ["size", "luminance", "distance", "angular_resolution", "wavelengths"],
     "munsell": ["rows", "cols", "patch_size", "border", "chips", "luminance", "distance", "angular_resolution",
                 "wavelengths"],
+    "macbeth": ["patch_size", "border", "luminance", "distance", "angular_resolution"],
 }
 BAD = ["abc", "nan", "inf", "-inf", "-1", "1e400", "9" * 10_000, "\uff15", "\u0661\u0662", "1e5x", "True", "[1 2]"]
 CASES = [(c, o, v) for c, opts in NUMERIC.items() for o in opts for v in BAD]
