@@ -92,8 +92,8 @@ def main(repeats=3):
 
 def live_move(repeats):
     """A noise move of the live design: the explorer alone, and with the Compare tab holding 2 pinned designs."""
-    from app.compare import CompareView
-    from app.state import ExplorerState
+    from camsim_explorer.compare import CompareView
+    from camsim_explorer.state import ExplorerState
 
     def moves(state, n=4 * repeats + 1):
         times = []

@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from app.compare import CompareView
-from app.state import ExplorerState
+from camsim_explorer.compare import CompareView
+from camsim_explorer.state import ExplorerState
 from camsim_core.review import evaluate_design
 from camsim_core.review.design import MAX_PINNED
 
@@ -50,7 +50,7 @@ def test_pinned_designs_show_the_engines_numbers(compared, engine):
 
 def test_each_pinned_design_is_computed_once(compared, monkeypatch):
     state, view = compared
-    import app.compare as module
+    import camsim_explorer.compare as module
 
     calls = []
     real = module.evaluate_design

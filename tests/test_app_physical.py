@@ -5,8 +5,8 @@ import pytest
 
 pytest.importorskip("panel")
 
-from app.physical import PhysicalView, mtf_curves, parameter_table  # noqa: E402
-from app.state import ExplorerState  # noqa: E402
+from camsim_explorer.physical import PhysicalView, mtf_curves, parameter_table  # noqa: E402
+from camsim_explorer.state import ExplorerState  # noqa: E402
 
 
 def test_mtf_curves_follow_the_f_number_and_blue_is_sharper():

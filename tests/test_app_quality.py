@@ -5,8 +5,8 @@ import pytest
 
 from camsim_core.metrics.report import measure_images
 
-from app.quality import QualityView
-from app.state import ExplorerState
+from camsim_explorer.quality import QualityView
+from camsim_explorer.state import ExplorerState
 
 
 def _engine(state, what):

@@ -4,9 +4,9 @@ full detail when zoomed in (the full array is never sent)."""
 import numpy as np
 import pytest
 
-import app.state as state_module
-from app.state import ExplorerState, ServerLimits
-from app.views import ResultsView, screen_part
+import camsim_explorer.state as state_module
+from camsim_explorer.state import ExplorerState, ServerLimits
+from camsim_explorer.views import ResultsView, screen_part
 
 SIDE = 100  # the default scene's raw is 233 x 372: 4 x 4 blocks fit it in 100 x 100
 
@@ -114,7 +114,7 @@ def test_de_map_is_coloured_as_bokehs_linear_mapper_would_colour_it():
     (index floor((v - low) / (high - low) * 256), clipped to the ends; NaN grey), written out here from the palette."""
     from bokeh.palettes import Inferno256
 
-    from app.views import de_rgba
+    from camsim_explorer.views import de_rgba
 
     low, high = 2.0, 12.0
     values = np.array([[-5.0, 2.0, 2.03, 4.5, 7.0, 11.99, 12.0, 40.0, np.nan]], np.float32)

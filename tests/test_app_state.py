@@ -14,8 +14,8 @@ import camsim_core as cc
 from camsim_core.datasets import SIMTOOLBOX
 from camsim_core.scene import macbeth_scene, save_npz_scene
 
-from app.state import ExplorerState  # noqa: E402
-from app.views import ResultsView  # noqa: E402
+from camsim_explorer.state import ExplorerState  # noqa: E402
+from camsim_explorer.views import ResultsView  # noqa: E402
 
 
 @pytest.fixture
@@ -222,8 +222,8 @@ def test_viewing_is_a_state_parameter_that_sets_scielab_samples_per_degree(state
 import threading  # noqa: E402
 import time  # noqa: E402
 
-from app.state import Runner, exposure_warnings, mean_level  # noqa: E402
-from app.views import de_range, histogram, rgba32  # noqa: E402
+from camsim_explorer.state import Runner, exposure_warnings, mean_level  # noqa: E402
+from camsim_explorer.views import de_range, histogram, rgba32  # noqa: E402
 
 
 def test_runner_computes_only_the_newest_request():
@@ -254,7 +254,7 @@ def test_runner_computes_only_the_newest_request():
 def test_sessions_compute_at_most_one_per_core_at_once_and_each_gets_its_result():
     """Ten sessions changing at once queue for the server's cores (``COMPUTE_SLOTS``) instead of running ten
     threads on two cores, and each still gets its own newest result."""
-    from app.state import COMPUTE_SLOT_COUNT as slots
+    from camsim_explorer.state import COMPUTE_SLOT_COUNT as slots
     lock, running, most = threading.Lock(), [0], [0]
     delivered = []
 
@@ -361,7 +361,7 @@ def test_exposure_warnings_count_clipped_and_dark_pixels(state):
 
 
 def test_raw_and_demosaiced_views_are_display_encoded_so_a_fifth_of_full_scale_is_not_black(state):
-    from app.views import planes_rgb, raw_rgb
+    from camsim_explorer.views import planes_rgb, raw_rgb
 
     raw = state.result.raw
     fifth = raw.replace(data=np.full(raw.data.shape, 0.2 * raw.full_scale))
@@ -374,7 +374,7 @@ def test_raw_and_demosaiced_views_are_display_encoded_so_a_fifth_of_full_scale_i
 
 def test_raw_view_by_table_is_the_per_pixel_colouring(state):
     """The raw view's table (every sensor's every digital value) gives the per-pixel arithmetic's bytes."""
-    from app.views import raw_rgb, raw_rgba
+    from camsim_explorer.views import raw_rgb, raw_rgba
 
     raw = state.result.raw
     assert raw.bits == 8 and np.array_equal(raw.data, np.rint(raw.data))  # the table's case
@@ -434,7 +434,7 @@ def test_histogram_refits_to_the_data():
 
 
 def test_a_new_session_starts_from_an_earlier_sessions_result_but_never_from_an_upload(tmp_path, monkeypatch):
-    from app import state as state_module
+    from camsim_explorer import state as state_module
     from camsim_core.scene import macbeth_scene, save_npz_scene
 
     monkeypatch.setattr(state_module, "_WARM", {})
@@ -452,8 +452,8 @@ def test_a_new_session_starts_from_an_earlier_sessions_result_but_never_from_an_
 
 
 def test_the_servers_warm_up_leaves_the_first_page_nothing_to_compute(monkeypatch):
-    from app import main
-    from app import state as state_module
+    from camsim_explorer import main
+    from camsim_explorer import state as state_module
 
     monkeypatch.setattr(state_module, "_WARM", {})
     monkeypatch.setitem(main._options, "scene", None)
@@ -526,7 +526,7 @@ def test_a_callback_for_the_event_loop_runs_once_and_lets_go_of_its_arguments():
     import gc
     import weakref
 
-    from app.views import once
+    from camsim_explorer.views import once
 
     class Big:  # stands for a result's arrays
         pass
@@ -578,7 +578,7 @@ def test_changes_panel_queued_and_no_task_will_send_are_sent(monkeypatch):
     from bokeh.document import Document
     from panel.io import document as pdoc
 
-    from app.main import flush_stranded_writes
+    from camsim_explorer.main import flush_stranded_writes
 
     doc = Document()
     calls = []

@@ -16,7 +16,7 @@ def test_the_replacement_matches_the_installed_bokeh():
     the event loop again (the server only logs a warning)."""
     from bokeh.server.contexts import ApplicationContext
 
-    from app import _build_off_loop
+    from camsim_explorer import _build_off_loop
 
     assert _build_off_loop._digest(ApplicationContext.create_session_if_needed) == _build_off_loop.BOKEH_SOURCE_SHA256
     assert _build_off_loop.install()

@@ -9,7 +9,7 @@ samples over their sampling, seen at its distance from the camera's distance) ag
 import numpy as np
 import pytest
 
-from app.state import ExplorerState
+from camsim_explorer.state import ExplorerState
 
 
 def cover(state):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import camsim_core as cs
-from app.state import ExplorerState
+from camsim_explorer.state import ExplorerState
 from camsim_core.scene import macbeth_scene
 from camsim_core.scene.charts import CHART_NAMES, chart, chart_shape, parse_chart
 

@@ -15,7 +15,7 @@ import pytest
 
 import camsim_core as cc
 import camsim_core.scene.charts as charts
-from app.state import ExplorerState, Runner
+from camsim_explorer.state import ExplorerState, Runner
 
 
 @pytest.fixture

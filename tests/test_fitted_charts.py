@@ -13,7 +13,7 @@ the zone plate's highest local frequency in the chart itself.
 import numpy as np
 import pytest
 
-from app.state import ExplorerState
+from camsim_explorer.state import ExplorerState
 from camsim_core.scene.charts import CHART_NAMES, chart, fitted_chart_options, parse_chart
 
 

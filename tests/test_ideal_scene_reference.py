@@ -118,7 +118,7 @@ def test_a_quantal_camera_gets_the_same_reference_at_any_exposure_and_depth(scen
 def test_more_than_256_values_per_channel_on_the_default_scene():
     """The explorer's default scene through its default camera: the reference is not quantized (the chapter's
     has at most 256 frame-buffer values per channel, fewer where the camera is dim)."""
-    from app.state import ExplorerState
+    from camsim_explorer.state import ExplorerState
 
     state = ExplorerState()
     r = Pipeline().run(state.scene_object(), state.camera_object(), state.processing())

@@ -4,7 +4,7 @@ import asyncio
 import logging
 import time
 
-from app.loop_watch import STALLS, watch_event_loop
+from camsim_explorer.loop_watch import STALLS, watch_event_loop
 
 
 def test_a_blocked_loop_is_logged_and_a_free_one_is_not(caplog):

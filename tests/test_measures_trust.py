@@ -259,7 +259,7 @@ def test_pixels_at_the_full_well_below_full_scale_are_clipped():
     its raw sits at K x full well (within the read-out noise), far below full scale, where the ADC clips
     nothing. Each pixel is clipped all the same (its value says only that the light was at least this much):
     the clipped share is ~1 and the frame is flagged, here and in the explorer's flags."""
-    from app.views import _exposure_flags
+    from camsim_explorer.views import _exposure_flags
     from camsim_core.metrics.exposure import exposure_measures
 
     cam, raw, res = _saturating_imx174(0.5, 1e5)
@@ -277,7 +277,7 @@ def test_pixels_at_the_full_well_below_full_scale_are_clipped():
     assert any(f.startswith("fully clipped:") and "full well" in f for f in m.flags), m.flags
     assert any(f.startswith("fully clipped:") for f in _exposure_flags(res))
     # the same for the result's own measure (the CLI's and the report's) and the explorer's stats line
-    from app.state import exposure_warnings
+    from camsim_explorer.state import exposure_warnings
 
     assert res.exposure.clipped > 0.999
     assert exposure_warnings(raw, cam)[0] > 0.999

@@ -117,7 +117,7 @@ def test_the_fixed_de_scale_is_kept_in_the_link_and_the_parameters_file(browser,
     """Defect 10: the fixed 0-20 dE colour scale was lost by a link and by the parameters file."""
     from urllib.parse import parse_qs, urlparse
 
-    from app.state import ExplorerState
+    from camsim_explorer.state import ExplorerState
 
     page = Page(browser, server)
     try:

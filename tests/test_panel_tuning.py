@@ -12,8 +12,8 @@ import panel as pn
 import param
 from bokeh.document import Document
 
-import app.main  # noqa: F401  (applies the patches, as the server does)
-from app import _panel_tuning
+import camsim_explorer.main  # noqa: F401  (applies the patches, as the server does)
+from camsim_explorer import _panel_tuning
 
 
 def _events(widget, **values):

@@ -28,7 +28,7 @@ def cones():
 
 
 def test_design_defaults_are_the_explorers_file_format():
-    from app.state import URL_PARAMETERS, ExplorerState
+    from camsim_explorer.state import URL_PARAMETERS, ExplorerState
 
     saved = json.loads(ExplorerState().to_json())
     assert {k: saved[k] for k in URL_PARAMETERS} == DESIGN_DEFAULTS
@@ -125,7 +125,7 @@ def test_bad_sweeps_are_refused_before_running(designs, parameter, values, match
 
 
 def test_design_file_with_pinned_designs_and_a_sweep(tmp_path):
-    from app.state import ExplorerState
+    from camsim_explorer.state import ExplorerState
 
     state = ExplorerState(camera="human-cones", noise_sigma=2.0)
     saved = json.loads(state.to_json())

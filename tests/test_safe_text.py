@@ -10,8 +10,8 @@ import panel as pn
 import pytest
 from tornado.httputil import HTTPHeaders
 
-from app.csp import HEADER, ContentSecurityPolicy, add_nonce, policy
-from app.safe_text import PlainText, html_text, md_text
+from camsim_explorer.csp import HEADER, ContentSecurityPolicy, add_nonce, policy
+from camsim_explorer.safe_text import PlainText, html_text, md_text
 
 HOSTILE = [
     "<img src=x onerror=window.__pwned=1>",

@@ -20,10 +20,10 @@ from urllib.parse import urlparse
 import pytest
 from bokeh.document import Document
 
-import app.main  # noqa: F401  (installs the explorer's reading of link values)
-from app import state as state_module
-from app.state import ExplorerState
-from app.upload import BoundedUpload
+import camsim_explorer.main  # noqa: F401  (installs the explorer's reading of link values)
+from camsim_explorer import state as state_module
+from camsim_explorer.state import ExplorerState
+from camsim_explorer.upload import BoundedUpload
 from app_helpers import server_log
 from camsim_core.cli.serve import OTHER_HOST_MESSAGE, allowed_origins, host_allowed
 

@@ -6,9 +6,9 @@ import time
 
 import pytest
 
-from app import state as state_module
-from app.main import _long_url_values
-from app.state import ExplorerState, json_depth, parse_numbers, parse_tile
+from camsim_explorer import state as state_module
+from camsim_explorer.main import _long_url_values
+from camsim_explorer.state import ExplorerState, json_depth, parse_numbers, parse_tile
 from camsim_core.cli.serve import allowed_origins, public_host
 from camsim_core.errors import CamsimError, ParameterError
 

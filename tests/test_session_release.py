@@ -2,7 +2,7 @@
 and the state's watchers unlinked (``app.main._release``, run from ``on_session_destroyed``)."""
 
 
-from app.main import _release, create_app
+from camsim_explorer.main import _release, create_app
 from camsim_core.scene import macbeth_scene, save_npz_scene
 
 

@@ -3,7 +3,7 @@ never get one. The browser test ``test_a_page_built_in_advance_is_the_page_a_req
 
 from tornado.httputil import HTTPHeaders, HTTPServerRequest, RequestStartLine
 
-from app import _spare_session as spare
+from camsim_explorer import _spare_session as spare
 
 
 def _request(uri, headers=None):

@@ -29,7 +29,7 @@ import pytest
 import scipy.io
 
 from app_helpers import ARTIFACTS, POLL, TIMEOUT
-from app.state import COMPARE_PARAMETERS, URL_PARAMETERS
+from camsim_explorer.state import COMPARE_PARAMETERS, URL_PARAMETERS
 
 pytestmark = pytest.mark.browser
 

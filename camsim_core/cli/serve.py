@@ -87,18 +87,15 @@ def register(subparsers):
 
 
 def _import_app():
-    """The ``app`` package (beside ``camsim_core`` in a checkout)."""
-    root = Path(__file__).resolve().parents[2]
-    if (root / "app" / "__init__.py").exists() and str(root) not in sys.path:
-        sys.path.insert(0, str(root))
-    import app.main
+    """The explorer's ``camsim_explorer.main`` (installed with the package)."""
+    import camsim_explorer.main
 
-    return app.main
+    return camsim_explorer.main
 
 
 def limits_from(args):
     """The server's :class:`app.state.ServerLimits` from the parsed flags."""
-    from app.state import ServerLimits
+    from camsim_explorer.state import ServerLimits
 
     from ..io.upload import UploadLimits
 
@@ -341,15 +338,15 @@ def run(args):
 
         start_upload_readers()
     _freeze_startup_objects()
-    from app import _build_off_loop  # pages built in a thread: the event loop serves the others meanwhile
+    from camsim_explorer import _build_off_loop  # pages built in a thread: the event loop serves the others meanwhile
 
     _build_off_loop.install()
     if not args.no_spare_page:
-        from app import _spare_session
+        from camsim_explorer import _spare_session
 
         if _spare_session.install():
             _spare_session.prepare_at_start(f"{public_host(args.address)}:{args.port}")
-    from app.csp import ContentSecurityPolicy  # the pages' Content-Security-Policy header (app/csp.py)
+    from camsim_explorer.csp import ContentSecurityPolicy  # the pages' Content-Security-Policy header (app/csp.py)
 
     print(f"camsim explorer on http://{public_host(args.address)}:{args.port}/ (Ctrl-C to stop)", flush=True)
     server = pn.serve(main.create_app, port=args.port, address=args.address, show=args.show, start=False,
@@ -361,7 +358,7 @@ def run(args):
              transforms=[ContentSecurityPolicy])
     refuse_other_hosts(server._tornado, origins)  # before the server takes its first request
     server.start()
-    from app.loop_watch import watch_event_loop, watch_garbage_collection
+    from camsim_explorer.loop_watch import watch_event_loop, watch_garbage_collection
 
     watch_event_loop(server.io_loop.asyncio_loop)  # a line in the log for every stall of the event loop over 100 ms
     watch_garbage_collection()  # and for every garbage collection that held every thread over 100 ms
