@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..datasets import asset_path
 from ..datasets.sensors import WAVELENGTHS_380_780, Sensors
 from ..errors import FileFormatError, ParameterError
 from ..simulation import bayer
@@ -32,7 +33,7 @@ from .camera import MAX_CAMERA_SIDE, Camera
 __all__ = ["PHYSICAL_NAMES", "physical_camera", "read_sensor_sheet", "angular_resolution_for", "SENSOR_FIELDS",
            "sensor_values", "with_sensor"]
 
-SENSOR_SHEETS = Path(__file__).resolve().parents[2] / "assets" / "sensors"
+SENSOR_SHEETS = asset_path("sensors")
 
 #: Shipped physical presets (files ``assets/sensors/NAME.json``).
 PHYSICAL_NAMES = ("phone-1.4um", "imx174")
