@@ -104,24 +104,38 @@ async def _build(path):
     _log.info("a spare page for %s built in %.0f ms", path, 1000 * (time.perf_counter() - t0))
     new = [s for s in main.live_states() if s not in before]
     if len(new) == 1:
-        _serialize_when_settled(path, session, new[0])
+        _serialize_when_settled(session, new[0], wanted=lambda: _spares.get(path) is session, speculative=True)
 
 
-def _serialize_when_settled(path, session, state):
-    """Once the spare's first result is in its document: give its stylesheets the addresses Panel gives them
-    when it writes the page, and serialize it for its first pull."""
+def _serialize_when_settled(session, state, wanted, speculative):
+    """Once the page's first result is in its document and ``wanted()`` still holds: give its stylesheets the
+    addresses Panel gives them when it writes the page, and serialize it for its first pull, off the event
+    loop (at background priority when ``speculative``: a spare nobody waits for yet)."""
     from tornado.ioloop import IOLoop
 
     def check():
-        if _spares.get(path) is not session:
-            return  # handed out before it settled: its pull serializes as usual
+        if not wanted() or session.destroyed or session.connection_count > 0:
+            return  # handed out, or connected, before it settled: its pull serializes as usual
         if state.computing:
-            IOLoop.current().call_later(POLL_S, check)
+            IOLoop.current().call_later(POLL_S / 5 if not speculative else POLL_S, check)
             return
         _page_stylesheets(session.document)
-        IOLoop.current().add_callback(_serialize_for_pull, session)
+        IOLoop.current().add_callback(_serialize_for_pull, session, speculative)
 
-    IOLoop.current().call_later(POLL_S, check)
+    IOLoop.current().call_later(POLL_S / 5 if not speculative else POLL_S, check)
+
+
+def serialize_built_page(session):
+    """A page built for its request (a link with arguments, or no spare at hand): serialize its document off
+    the event loop once its first result is in, for the pull its browser makes after loading the scripts
+    (0.5-0.8 s later). Serialized on the loop, a page with its first images held every other page for
+    150-250 ms (the server's loop watch, in the hostile load test)."""
+    from . import main
+
+    state = main.state_of(session.document)
+    if state is None or not _build_off_loop.installed():
+        return
+    _serialize_when_settled(session, state, wanted=lambda: True, speculative=False)
 
 
 def _page_stylesheets(doc):
@@ -153,10 +167,10 @@ class _AsSerialized:
         return self._serialized
 
 
-async def _serialize_for_pull(session):
-    """Serialize the session's document now (off the event loop when pages are built off it); its first pull
-    replies with that if the document has not changed since the serialization began (and is not holding back
-    changes), else Bokeh serializes it anew."""
+async def _serialize_for_pull(session, speculative=True):
+    """Serialize the session's document now (off the event loop when pages are built off it, at background
+    priority when ``speculative``); its first pull replies with that if the document has not changed since
+    the serialization began (and is not holding back changes), else Bokeh serializes it anew."""
     if session.destroyed or session.connection_count > 0:
         return
     doc = session.document
@@ -169,7 +183,7 @@ async def _serialize_for_pull(session):
     doc.on_change(on_change)  # before the serialization starts: a change made meanwhile makes it stale
     try:
         if _build_off_loop.installed():
-            _build_off_loop.SPECULATIVE.set(True)  # this task's own context: for the next visitor, at low priority
+            _build_off_loop.SPECULATIVE.set(speculative)  # this task's own context (a spare: at low priority)
             serialized = await _build_off_loop.run_in_builder(doc.to_json)
         else:
             serialized = doc.to_json()
@@ -179,6 +193,7 @@ async def _serialize_for_pull(session):
     if session.destroyed or session.connection_count > 0 or changed:
         doc.remove_on_change(on_change)
         return
+    _log.info("a page (%s) serialized off the event loop", "spare" if speculative else "built for its request")
     bokehs = session._handle_pull
 
     async def handle_pull(message, connection):  # as Bokeh's: a coroutine
@@ -187,6 +202,7 @@ async def _serialize_for_pull(session):
         if changed or getattr(doc.callbacks, "hold_value", None) is not None or _stylesheet_urls(doc) != urls:
             _log.info("a spare page changed after it was serialized: its pull serializes it anew")
             return await bokehs(message, connection)
+        _log.info("a page's first pull answered with its serialization made off the event loop")
         return connection.protocol.create("PULL-DOC-REPLY", message.header["msgid"], _AsSerialized(serialized))
 
     session._handle_pull = handle_pull
@@ -280,6 +296,7 @@ def install():
         how = "spare" if session is not None else "built"
         if session is None:
             session = await original(self)
+            serialize_built_page(session)
         # the browser's developer tools (and the tests) see how the page's session came about
         self.set_header("Server-Timing", f'session;desc="{how}";dur={1000 * (time.perf_counter() - t0):.1f}')
         if not self.request.arguments and self.request.path not in _sources:

@@ -51,6 +51,17 @@ def live_states():
     """The sessions' states alive now (a list: safe while a page is being built in another thread)."""
     with _LIVE_LOCK:
         return list(LIVE_STATES)
+
+
+#: Each session's document -> its state (weak both ways: nothing here keeps a closed session alive).
+_STATE_OF_DOC = weakref.WeakKeyDictionary()
+
+
+def state_of(doc):
+    """The explorer state shown in Bokeh document ``doc``; None for a document the explorer did not build."""
+    with _LIVE_LOCK:
+        ref = _STATE_OF_DOC.get(doc)
+    return ref() if ref is not None else None
 #: Called after a closed session is released (``camsim serve`` gives freed memory back to the system here).
 AFTER_RELEASE = []
 
@@ -612,6 +623,8 @@ def create_app(scene=None):
     state = _new_state(scene)
     with _LIVE_LOCK:
         LIVE_STATES.add(state)
+        if pn.state.curdoc is not None:
+            _STATE_OF_DOC[pn.state.curdoc] = weakref.ref(state)
     _go_background(state)
     state.recompute()  # in the background in a server: the page shows at once, marked as computing
     if pn.state.location is not None:

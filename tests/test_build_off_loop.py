@@ -38,3 +38,42 @@ def test_a_served_page_is_built_in_the_builder_thread():
                 break
             time.sleep(0.2)
     assert builds and all(name.startswith("camsim-build_") for name in builds), builds
+
+
+
+def _count(log_path, text):
+    return log_path.read_text(errors="replace").count(text)
+
+
+@pytest.mark.slow
+def test_a_page_built_for_its_link_is_pulled_from_a_serialization_made_off_the_loop():
+    """A link's page (never a spare) is serialized in the builder thread once its first result is in; the
+    browser's pull then gets that serialization, a complete document with the result, instead of the event
+    loop serializing it while every other page waits."""
+    import asyncio
+
+    from ws_session import WsSession
+
+    ARTIFACTS.mkdir(exist_ok=True)
+    with explorer_server() as url:
+        log_path = ARTIFACTS / f"server-{url.rsplit(':', 1)[1].strip('/')}.log"
+        link = url + "?noise_sigma=3"
+        before = _count(log_path, "serialized off the event loop")
+        page = urllib.request.urlopen(link, timeout=90).read().decode()  # the session is built for the link
+        deadline = time.monotonic() + 60
+        while _count(log_path, "serialized off the event loop") == before:
+            assert time.monotonic() < deadline, "the link's page was not serialized off the event loop"
+            time.sleep(0.05)
+
+        async def pull():  # what the page's scripts do once loaded: open the websocket and pull the document
+            session = await WsSession.open(link, page=page)
+            try:
+                return session.pulled_status()
+            finally:
+                await session.close()
+
+        status = asyncio.run(pull())
+        answered = _count(log_path, "answered with its serialization made off the event loop")
+    assert answered == 1
+    assert status is not None and status["params"]["noise_sigma"] == 3, status
+    assert not status.get("computing") and status.get("mean_de", 0) > 0, status

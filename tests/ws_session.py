@@ -21,6 +21,7 @@ import html
 import json
 import re
 import time
+import urllib.parse
 import urllib.request
 from itertools import count
 
@@ -46,6 +47,16 @@ def _walk(node, found):
             _walk(v, found)
 
 
+def _status(text):
+    """The status pane's JSON from its model's text (Panel escapes the pane's HTML once more for its model:
+    unescape, drop <pre>, unescape the JSON); None when it is not JSON."""
+    inner = re.fullmatch(r"\s*<pre>(.*)</pre>\s*", html.unescape(text), re.S)
+    try:
+        return json.loads(html.unescape(inner.group(1))) if inner else None
+    except ValueError:
+        return None
+
+
 class WsSession:
     """One explorer session over its websocket. ``await WsSession.open(url)``; then :meth:`change` a widget
     (by its CSS class) and :meth:`shown` the time until the status pane shows the result."""
@@ -59,11 +70,13 @@ class WsSession:
         self._reader = None
 
     @classmethod
-    async def open(cls, url, timeout=90.0):
+    async def open(cls, url, timeout=90.0, page=None):
+        """Open the session of the page at ``url`` (of the page's HTML ``page`` when fetched already)."""
         self = cls(url)
-        page = await asyncio.to_thread(lambda: urllib.request.urlopen(url, timeout=timeout).read().decode())
+        if page is None:
+            page = await asyncio.to_thread(lambda: urllib.request.urlopen(url, timeout=timeout).read().decode())
         token = re.search(r'"token":"([^"]+)"', page).group(1)
-        host = url.split("//", 1)[1].rstrip("/")
+        host = urllib.parse.urlsplit(url).netloc
         request = HTTPRequest(f"ws://{host}/ws", headers={"Origin": f"http://{host}"})
         self.ws = await websocket_connect(request, subprotocols=["bokeh", token], max_message_size=1 << 30)
         await self._message()  # ACK
@@ -116,13 +129,13 @@ class WsSession:
             for event in content.get("events", []):
                 if event.get("kind") == "ModelChanged" and event.get("model", {}).get("id") == self.status_id \
                         and event.get("attr") == "text":
-                    # Panel escapes the pane's HTML once more for its model: unescape, drop <pre>, unescape the JSON
-                    inner = re.fullmatch(r"\s*<pre>(.*)</pre>\s*", html.unescape(event["new"]), re.S)
-                    text = html.unescape(inner.group(1)) if inner else ""
-                    try:
-                        self.statuses.append((time.monotonic(), json.loads(text)))
-                    except ValueError:
-                        pass
+                    status = _status(event["new"])
+                    if status is not None:
+                        self.statuses.append((time.monotonic(), status))
+
+    def pulled_status(self):
+        """The status the page's document held when it was pulled (a dict; None when it held none)."""
+        return _status(self.models[self.status_id]["attributes"].get("text", ""))
 
     async def change(self, css, value):
         """Send widget ``css``'s new ``value`` as the browser does; returns the monotonic time it was sent."""
