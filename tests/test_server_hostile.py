@@ -25,7 +25,7 @@ from camsim_explorer import state as state_module
 from camsim_explorer.state import ExplorerState
 from camsim_explorer.upload import BoundedUpload
 from app_helpers import server_log
-from camsim_core.cli.serve import OTHER_HOST_MESSAGE, allowed_origins, host_allowed
+from camsim_explorer.serve import OTHER_HOST_MESSAGE, allowed_origins, host_allowed
 
 MiB = 2**20
 

@@ -9,7 +9,7 @@ import pytest
 from camsim_explorer import state as state_module
 from camsim_explorer.main import _long_url_values
 from camsim_explorer.state import ExplorerState, json_depth, parse_numbers, parse_tile
-from camsim_core.cli.serve import allowed_origins, public_host
+from camsim_explorer.serve import allowed_origins, public_host
 from camsim_core.errors import CamsimError, ParameterError
 
 
@@ -85,7 +85,7 @@ def test_closed_sessions_cycles_are_collected_and_the_heaps_trimmed_once_the_clo
 
     from tornado.ioloop import IOLoop
 
-    from camsim_core.cli.serve import _collect_and_trim_once_quiet
+    from camsim_explorer.serve import _collect_and_trim_once_quiet
 
     trims = []
 
@@ -123,7 +123,7 @@ def test_startup_objects_are_frozen_after_garbage_is_collected():
     import gc
     import weakref
 
-    from camsim_core.cli.serve import _freeze_startup_objects
+    from camsim_explorer.serve import _freeze_startup_objects
 
     gc.disable()  # no automatic collection may free the cycle first
     garbage = _Cycle()
@@ -143,7 +143,7 @@ def test_a_write_to_a_closed_page_is_one_log_line_and_other_errors_reach_asyncio
     from tornado.iostream import StreamClosedError
     from tornado.websocket import WebSocketClosedError
 
-    from camsim_core.cli.serve import closed_page_exception_handler
+    from camsim_explorer.serve import closed_page_exception_handler
 
     class Loop:
         def __init__(self):

@@ -65,14 +65,18 @@ def main(argv=None):
         interrupted. Argument errors and ``--help`` raise ``SystemExit`` (2
         and 0) as argparse does.
     """
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["serve"]:  # the explorer's command: its flags and server are the explorer's (see cli/serve.py)
+        from .serve import main as serve
+
+        # a server runs for hours: its warnings are shown as they come, not kept
+        return _run(argparse.Namespace(command="serve", func=lambda _: serve(argv[1:])))
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         print(f"camsim: error: a COMMAND is required ({', '.join(parser.command_names)})", file=sys.stderr)
         return 2
-    if args.command == "serve":  # a server runs for hours: its warnings are shown as they come, not kept
-        return _run(args)
     with warnings.catch_warnings(record=True) as caught:  # the filters in force stay; shown warnings are kept
         status = _run(args)
     if status == 0:

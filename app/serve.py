@@ -1,0 +1,365 @@
+"""``camsim serve``: start the explorer (a Panel web app) on a local port.
+
+This module is the explorer's (``camsim_explorer.serve``): the engine's
+command line names the command and hands its arguments here when it runs
+(:func:`camsim_core.cli.serve.main`), so the engine never imports Panel or
+the explorer. Every bound a session is held to (upload size, zip members,
+scene size, Gaussian sensors, tile size, text and JSON sizes, idle time) is
+a flag here and listed in the README.
+"""
+
+from __future__ import annotations
+
+import logging
+import socket
+import sys
+import time
+
+from camsim_core.errors import ParameterError
+
+__all__ = ["register", "run", "WEBSOCKET_MAX_MESSAGE_BYTES"]
+
+#: Largest websocket message the server accepts (Bokeh's default, set explicitly): uploads travel in 1 MiB pieces.
+WEBSOCKET_MAX_MESSAGE_BYTES = 20 * 2**20
+#: The server's GIL switch interval (s; CPython's default is 0.005). The event loop's callbacks give up the GIL
+#: at every socket write, lock and numpy call, and each time wait for a computing thread to hand it back: at
+#: 5 ms a wait, a result's 8 ms of Python took 50-220 ms on the loop while two sessions computed.
+GIL_SWITCH_S = 0.0005
+
+
+def _positive_int(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise ParameterError("limit", f"expected a whole number, got {text!r}") from None
+    if v < 1:
+        raise ParameterError("limit", f"must be at least 1, got {v}")
+    return v
+
+
+def _positive_float(text):
+    try:
+        v = float(text)
+    except ValueError:
+        raise ParameterError("limit", f"expected a number, got {text!r}") from None
+    if not (v > 0 and v < float("inf")):
+        raise ParameterError("limit", f"must be a positive number, got {text!r}")
+    return v
+
+
+def register(subparsers):
+    from camsim_core.io.upload import UploadLimits
+
+    up = UploadLimits()
+    p = subparsers.add_parser("serve", help="start the explorer web app")
+    p.add_argument("--port", type=int, default=5006, help="port to listen on (default 5006; 0 picks a free one)")
+    p.add_argument("--address", default="127.0.0.1",
+                   help="address to listen on (default 127.0.0.1; 0.0.0.0 to serve a class or a review)")
+    p.add_argument("--scene", default=None, help="scene sessions open on: a shipped name or a .Simg / .npz path")
+    p.add_argument("--allow-websocket-origin", "--allow-origin", dest="allow_origin", action="append", default=[],
+                   metavar="HOST[:PORT]", help="extra host:port allowed to open the websocket (repeatable)")
+    p.add_argument("--show", action="store_true", help="open a browser tab")
+    p.add_argument("--no-upload", action="store_true", help="offer no scene upload (for public demos)")
+    p.add_argument("--no-spare-page", action="store_true",
+                   help="build each page when it is asked for (by default the next page is built while the "
+                        "server is idle, so that opening the explorer does not wait for it; it costs one "
+                        "session's memory)")
+    g = p.add_argument_group("limits")
+    g.add_argument("--max-upload-mb", type=_positive_float, default=up.max_upload_bytes / 2**20,
+                   help=f"largest uploaded file, MiB (default {up.max_upload_bytes / 2**20:g})")
+    g.add_argument("--max-zip-members", type=_positive_int, default=up.max_members,
+                   help=f"most members of an uploaded zip (default {up.max_members})")
+    g.add_argument("--max-unzipped-mb", type=_positive_float, default=up.max_total_bytes / 2**20,
+                   help=f"largest total uncompressed size of an uploaded zip, MiB (default {up.max_total_bytes / 2**20:g})")
+    g.add_argument("--max-scene-values", type=_positive_int, default=up.max_scene_values,
+                   help=f"most values (pixels x planes) of an uploaded scene (default {up.max_scene_values})")
+    g.add_argument("--max-sensors", type=_positive_int, default=16, help="most Gaussian sensors (default 16)")
+    g.add_argument("--max-tile", type=_positive_int, default=8, help="largest custom tile side (default 8)")
+    g.add_argument("--max-text", type=_positive_int, default=256,
+                   help="longest text field or URL value, characters (default 256)")
+    g.add_argument("--max-json-kb", type=_positive_float, default=64, help="largest parameters JSON, KiB (default 64)")
+    g.add_argument("--max-uploads", type=_positive_int, default=3, help="uploaded scenes a session keeps (default 3)")
+    g.add_argument("--max-view-side", type=_positive_int, default=1280,
+                   help="most pixels along a side of an image view sent to the browser; larger results are shown "
+                   "averaged, and zooming in fetches detail (default 1280)")
+    g.add_argument("--session-idle", type=_positive_float, default=60.0,
+                   help="seconds after its last browser tab closes that a session is freed (default 60)")
+    p.set_defaults(func=run)
+
+
+def limits_from(args):
+    """The server's :class:`camsim_explorer.state.ServerLimits` from the parsed flags."""
+    from camsim_core.io.upload import UploadLimits
+
+    from .state import ServerLimits
+
+    up = UploadLimits()
+    total = int(args.max_unzipped_mb * 2**20)
+    upload = UploadLimits(
+        max_upload_bytes=int(args.max_upload_mb * 2**20),
+        max_members=args.max_zip_members,
+        max_member_bytes=min(up.max_member_bytes, total),
+        max_total_bytes=total,
+        max_scene_values=args.max_scene_values,
+    )
+    return ServerLimits(upload=upload, max_sensors=args.max_sensors, max_tile=args.max_tile, max_text=args.max_text,
+                        max_json_bytes=int(args.max_json_kb * 1024), max_uploads=args.max_uploads,
+                        max_view_side=args.max_view_side)
+
+
+def _lan_address():
+    """This machine's address on its network (no packet is sent), or its host name."""
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.connect(("10.255.255.255", 1))
+            return s.getsockname()[0]
+    except OSError:
+        return socket.gethostname()
+
+
+def public_host(address):
+    """The host the printed URL names: ``localhost`` locally, the machine's address for 0.0.0.0."""
+    if address in ("127.0.0.1", "localhost", "::1"):
+        return "localhost"
+    if address in ("0.0.0.0", "", "::"):
+        return _lan_address()
+    return address
+
+
+def _url_host(host):
+    """``host`` as a URL writes it: an IPv6 address in brackets."""
+    return f"[{host}]" if ":" in host and not host.startswith("[") else host
+
+
+def allowed_origins(address, port, extra=()):
+    """Hosts (``HOST:PORT``) the server answers and websocket origins it accepts: the printed URL's host and
+    the loopback names (``localhost``, ``127.0.0.1``, ``[::1]``), plus ``extra``; never ``*``.
+
+    The same list serves both checks: the websocket's ``Origin`` (Bokeh's) and every request's ``Host``
+    header (:func:`refuse_other_hosts`).
+    """
+    hosts = {"localhost", "127.0.0.1", "[::1]", _url_host(public_host(address))}
+    if address not in ("0.0.0.0", "", "::"):
+        hosts.add(_url_host(address))
+    origins = {f"{h}:{port}" for h in hosts}
+    for e in extra:
+        e = str(e).strip()
+        if not e or "*" in e:
+            raise ParameterError("--allow-websocket-origin", f"expected HOST or HOST:PORT without wildcards, got {e!r}")
+        origins.add(e if ":" in e else f"{e}:{port}")
+    return sorted(origins)
+
+
+#: The answer to a request naming another host (see :func:`refuse_other_hosts`).
+OTHER_HOST_MESSAGE = ("403: this server answers only to its own address; a page reached under another name (DNS "
+                      "rebinding) gets nothing. camsim serve --allow-websocket-origin HOST[:PORT] adds a name.\n")
+
+
+def host_allowed(host, allowed):
+    """Whether a request's ``Host`` header (``HOST[:PORT]``; no port means 80) is one of ``allowed``."""
+    from bokeh.server.util import check_allowlist
+
+    host = str(host or "").strip().lower()
+    return bool(host) and check_allowlist(host, [a.lower() for a in allowed])
+
+
+def refuse_other_hosts(tornado_app, allowed):
+    """Answer 403 (a plain text) to every request whose ``Host`` is not in ``allowed``: the page, the
+    websocket, the static files, every route of ``tornado_app`` (the server's Tornado application).
+
+    A page of another site whose name is made to point at this machine (DNS rebinding) is, to the
+    browser, of that site: its requests name that site in ``Host``, and for the websocket in ``Origin``
+    too, which Tornado accepts when it equals the ``Host``. Checked first, before any handler runs (a
+    refused request makes no session).
+    """
+    from tornado.routing import Matcher, Rule
+    from tornado.web import RequestHandler
+
+    class OtherHost(Matcher):
+        def match(self, request):
+            return None if host_allowed(request.host, allowed) else {}
+
+    class Refuse(RequestHandler):
+        def prepare(self):
+            self.set_status(403)
+            self.set_header("Content-Type", "text/plain; charset=utf-8")
+            self.finish(OTHER_HOST_MESSAGE)
+
+    tornado_app.default_router.rules.insert(0, Rule(OtherHost(), Refuse))
+
+
+def _return_freed_memory_to_the_system():
+    """Let a closed session's memory go back to the operating system (glibc only; elsewhere a no-op).
+
+    Each session computes in threads of its own, and glibc gives threads heaps
+    (arenas) of their own whose freed pages it seldom returns: a server kept
+    hundreds of MB after its sessions closed. Two arenas at most, and a trim
+    of every heap after a session is released (``camsim_explorer.main.AFTER_RELEASE``),
+    again after a full collection once the closes stop
+    (:func:`_collect_and_trim_once_quiet`).
+    A fixed mmap threshold would return memory too, but doubled the engine's
+    time per change (every large temporary array mapped and unmapped).
+    """
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6")
+        libc.mallopt(-8, 2)  # M_ARENA_MAX
+        return libc
+    except (OSError, AttributeError):
+        return None
+
+
+def _freeze_startup_objects():
+    """Leave the objects made at start (modules, classes, the shipped data, the warm-up's session) out of
+    every later garbage collection: the collector walks every object it tracks, ~0.5 million of them
+    here, most of them never garbage. Collected first, so nothing frozen is garbage."""
+    import gc
+
+    gc.collect()
+    gc.freeze()
+
+
+#: Seconds without a session released before the collection and trim of :func:`_collect_and_trim_once_quiet`.
+QUIET_S = 2.0
+
+
+def _collect_and_trim_once_quiet(libc, quiet_s=None):
+    """A release hook: once no session has been released for ``QUIET_S`` seconds, one full garbage
+    collection and a heap trim.
+
+    Part of a closed session sits in reference cycles (Panel's one-shot callbacks) that only a full
+    collection frees, which Python runs rarely: the trim at release time came before those arrays were
+    freed, and their pages stayed with the process (the 10-session load test: +87-101 MB after all
+    closed, +34-47 MB with this). A full collection pauses the event loop (30 ms after one session,
+    250 ms after eleven: 273,000 objects, measured with the startup objects frozen), a pause Python's
+    own collector would take anyway when it gets round to those cycles; here it comes once after a
+    burst of closes, not per close.
+    """
+    import gc
+
+    from tornado.ioloop import IOLoop
+
+    pending = []
+
+    def collect_and_trim():
+        pending.clear()
+        t0 = time.perf_counter()
+        freed = gc.collect()
+        libc.malloc_trim(0)
+        logging.getLogger("camsim.explorer").info("after closed sessions: %d objects collected, heaps trimmed, in %.0f ms",
+                                                  freed, 1000 * (time.perf_counter() - t0))
+
+    def schedule():
+        loop = IOLoop.current()
+        for handle in pending:
+            loop.remove_timeout(handle)
+        pending[:] = [loop.call_later(QUIET_S if quiet_s is None else quiet_s, collect_and_trim)]
+
+    return schedule
+
+
+def _log_to_stderr():
+    """The server's own notes (``camsim.*`` loggers at INFO: spare pages built, memory returned after closed
+    sessions, stranded changes re-sent) on stderr, one line each; without a handler Python drops them."""
+    logger = logging.getLogger("camsim")
+    if not any(getattr(h, "camsim", False) for h in logger.handlers):
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("%(asctime)s %(name)s: %(message)s", "%H:%M:%S"))
+        handler.camsim = True
+        logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+
+
+def closed_page_exception_handler(loop, context):
+    """asyncio's handler for exceptions nobody retrieved, in ``camsim serve``.
+
+    A message written to a page's websocket after the page closed raises in a
+    task nobody awaits; asyncio's default handler then prints "Task exception
+    was never retrieved" and a traceback for what is a tab closing mid-update.
+    Those are logged as one line; every other exception goes to the default
+    handler.
+    """
+    from tornado.iostream import StreamClosedError
+    from tornado.websocket import WebSocketClosedError
+
+    if isinstance(context.get("exception"), (WebSocketClosedError, StreamClosedError)):
+        logging.getLogger("camsim.explorer").info("a message to a closed page was dropped")
+        return
+    loop.default_exception_handler(context)
+
+
+def _quiet_closed_page_writes():
+    """Install :func:`closed_page_exception_handler` on the server's event loop once it runs."""
+    import asyncio
+
+    from tornado.ioloop import IOLoop
+
+    IOLoop.current().add_callback(lambda: asyncio.get_running_loop().set_exception_handler(
+        closed_page_exception_handler))
+
+
+def run(args):
+    from camsim_core import load_scene
+
+    if not 0 <= args.port <= 65535:
+        raise ParameterError("--port", f"must be 0..65535, got {args.port}")
+    if args.port == 0:
+        with socket.socket() as s:
+            s.bind((args.address if args.address not in ("0.0.0.0", "") else "", 0))
+            args.port = s.getsockname()[1]
+    scene = None
+    if args.scene:
+        scene = load_scene(args.scene)  # validate now: a clear error, not a broken page
+        scene = args.scene if str(args.scene).lower() == scene.name else scene
+    _log_to_stderr()
+    _quiet_closed_page_writes()
+    libc = _return_freed_memory_to_the_system()
+    import panel as pn
+
+    from . import main
+
+    if libc is not None:
+        main.AFTER_RELEASE.append(lambda: libc.malloc_trim(0))
+        main.AFTER_RELEASE.append(_collect_and_trim_once_quiet(libc))
+
+    limits = limits_from(args)
+    main.configure(scene, limits=limits, upload=not args.no_upload)
+    origins = allowed_origins(args.address, args.port, args.allow_origin)
+    idle_ms = int(args.session_idle * 1000)
+    main.warm_up()
+    if not args.no_upload:  # uploads are read in worker processes forked from a server started now
+        from camsim_core.io.isolated import warm_up as start_upload_readers
+
+        start_upload_readers()
+    _freeze_startup_objects()
+    from . import _build_off_loop  # pages built in a thread: the event loop serves the others meanwhile
+
+    _build_off_loop.install()
+    if not args.no_spare_page:
+        from . import _spare_session
+
+        if _spare_session.install():
+            _spare_session.prepare_at_start(f"{public_host(args.address)}:{args.port}")
+    from .csp import ContentSecurityPolicy  # the pages' Content-Security-Policy header (app/csp.py)
+
+    print(f"camsim explorer on http://{public_host(args.address)}:{args.port}/ (Ctrl-C to stop)", flush=True)
+    server = pn.serve(main.create_app, port=args.port, address=args.address, show=args.show, start=False,
+             websocket_origin=[o for o in origins if not o.startswith("[")],  # Bokeh parses no IPv6 address
+             title="camsim explorer", verbose=False,
+             websocket_max_message_size=WEBSOCKET_MAX_MESSAGE_BYTES,
+             unused_session_lifetime_milliseconds=idle_ms,
+             check_unused_sessions_milliseconds=max(500, min(idle_ms, 10_000)),
+             transforms=[ContentSecurityPolicy])
+    refuse_other_hosts(server._tornado, origins)  # before the server takes its first request
+    server.start()
+    from .loop_watch import watch_event_loop, watch_garbage_collection
+
+    watch_event_loop(server.io_loop.asyncio_loop)  # a line in the log for every stall of the event loop over 100 ms
+    watch_garbage_collection()  # and for every garbage collection that held every thread over 100 ms
+    sys.setswitchinterval(GIL_SWITCH_S)
+    try:
+        server.io_loop.start()
+    except RuntimeError:  # as pn.serve: a loop already running
+        pass
+    return 0
