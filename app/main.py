@@ -75,10 +75,20 @@ Move one control at a time and watch the mean dE."""
 
 #: Presentation mode: large type and images for a projector (a class on the page's body).
 _PRESENT_CSS = """
-body.camsim-present { --bokeh-font-size: 20px; --base-font-size: 20px; font-size: 20px; }
+body.camsim-present { --bokeh-font-size: 20px; --base-font-size: 20px; font-size: 20px; --camsim-scale: 1.5; }
 body.camsim-present .bk-input, body.camsim-present label { font-size: 20px; }
 """
 _PRESENT_JS = "document.body.classList.toggle('camsim-present', cb_obj.active)"
+#: How much larger presentation mode makes the controls' text: 1.5 x the browser's 13.3 px (inputs, selects)
+#: and Bootstrap's 12.8 px (buttons) gives 20 and 19.2 px, readable from the back of a room.
+PRESENT_SCALE = 1.5
+#: In every widget's own style (its shadow root, where the page's CSS does not reach): the controls' text
+#: scaled by ``--camsim-scale``, which presentation mode sets on the page's body and custom properties carry
+#: into shadow roots (1 otherwise: the sizes a page has without it).
+_CONTROL_CSS = (".bk-input, select, option, input { font-size: calc(13.333px * var(--camsim-scale, 1)); }\n"
+                ".bk-btn, button.card-header { font-size: calc(12.8px * var(--camsim-scale, 1)); }")
+#: Plots draw their text on a canvas, out of CSS's reach: presentation mode gives their document a Bokeh theme.
+PRESENT_PLOT_TEXT = {"axis_label": "20px", "tick_label": "18px", "title": "20px", "legend": "18px"}
 #: The page's icon, in the page itself: a 2 x 2 Bayer tile (G R / B G). The explorer writes its parameters into
 #: the address on every change, and Chromium fetches a linked icon again after each such change: one HTTP
 #: request to the server per move, handled on the event loop that also serves the results.
@@ -663,8 +673,11 @@ def create_app(scene=None):
                                 sizing_mode="stretch_width")
     present.jscallback(value=_PRESENT_JS)
 
+    doc = pn.state.curdoc
+
     def on_present(event):
         views["grid"].ncols = 2 if event.new else 3
+        show_presentation(doc, event.new)
 
     present.param.watch(on_present, "value")
     # Not a collapsed Card: a Card hides its children by setting their `visible` in the browser, which the
@@ -687,6 +700,7 @@ def create_app(scene=None):
         sidebar_width=330,
         favicon=FAVICON,
         busy_indicator=None,  # the result panes show their own state; a header spinner would cost two messages per change
+        design=_Design,
     )
     template.state = state  # for tests and notebooks
     if pn.state.curdoc is not None and pn.state.curdoc.session_context is not None:
@@ -718,6 +732,45 @@ def _undelayed(objects):
     for obj in objects:
         for widget in obj.select(pn.widgets.Widget) if hasattr(obj, "select") else ():  # a Text has no widgets
             widget._debounce = 0
+
+
+class _Design(pn.theme.Bootstrap):
+    """Panel's Bootstrap design, with the explorer's control style (:data:`_CONTROL_CSS`) in every widget."""
+
+    modifiers = {**pn.theme.Bootstrap.modifiers,
+                 pn.widgets.Widget: {"stylesheets": [pn.theme.base.Inherit, _CONTROL_CSS]},
+                 pn.custom.JSComponent: {"stylesheets": [pn.theme.base.Inherit, _CONTROL_CSS]},  # the upload
+                 pn.layout.Card: {**pn.theme.Bootstrap.modifiers.get(pn.layout.Card, {}),
+                                  "stylesheets": [pn.theme.base.Inherit, _CONTROL_CSS]}}
+
+
+def present_theme():
+    """The Bokeh theme of presentation mode: plots' axis, tick, title and legend text at
+    :data:`PRESENT_PLOT_TEXT` sizes (their canvas text does not follow the page's CSS)."""
+    from bokeh.themes import Theme
+
+    t = PRESENT_PLOT_TEXT
+    return Theme(json={"attrs": {
+        "Axis": {"axis_label_text_font_size": t["axis_label"], "major_label_text_font_size": t["tick_label"]},
+        "Title": {"text_font_size": t["title"]},
+        "Legend": {"label_text_font_size": t["legend"], "title_text_font_size": t["legend"]},
+        "ColorBar": {"major_label_text_font_size": t["tick_label"], "title_text_font_size": t["legend"]},
+    }})
+
+
+_THEME_BEFORE = weakref.WeakKeyDictionary()  # document -> its theme before presentation mode
+
+
+def show_presentation(doc, on):
+    """Presentation mode's plot text in ``doc`` (a Bokeh document): the present theme when ``on``, the theme
+    it had before otherwise. A theme reaches plots made later too (tabs are built when first opened)."""
+    if doc is None:
+        return
+    if on:
+        _THEME_BEFORE.setdefault(doc, doc.theme)
+        doc.theme = present_theme()
+    elif doc in _THEME_BEFORE:
+        doc.theme = _THEME_BEFORE.pop(doc)
 
 
 class _Template(pn.template.BootstrapTemplate):

@@ -138,3 +138,65 @@ def test_the_fixed_de_scale_is_kept_in_the_link_and_the_parameters_file(browser,
     again = ExplorerState(start=False)
     assert again.from_json(state.to_json()), again.message
     assert again.de_scale == "fixed 0-20"
+
+
+# every control showing text (selects, text and number boxes, buttons with a label), in every shadow root
+_CONTROL_TEXT_SIZES = """() => {
+  const out = [];
+  function walk(root) {
+    for (const el of root.querySelectorAll('*')) {
+      if (el.shadowRoot) walk(el.shadowRoot);
+      const tag = el.tagName.toLowerCase();
+      const text = tag === 'select' || (tag === 'input' && ['text', 'number', ''].includes(el.type))
+                   || (tag === 'button' && el.textContent.trim() !== '');
+      const box = el.getBoundingClientRect();
+      if (text && box.width > 0 && box.height > 0)
+        out.push([tag, (el.value || el.textContent).trim().slice(0, 30), parseFloat(getComputedStyle(el).fontSize)]);
+    }
+  }
+  walk(document);
+  return out;
+}"""
+# the plots' canvas text sizes (px), from the Bokeh models in the page
+_PLOT_TEXT_SIZES = """() => {
+  const out = [];
+  for (const m of Bokeh.documents[0]._all_models.values()) {
+    const name = m.constructor && m.constructor.__name__;
+    if (name && name.endsWith('Axis')) out.push(['tick', String(m.major_label_text_font_size)]);
+    if (name === 'Title' && m.text) out.push(['title', String(m.text_font_size)]);
+  }
+  return out;
+}"""
+
+
+def test_presentation_mode_makes_every_control_and_plot_text_readable_at_1920(browser, server):
+    """Defect 3: in presentation mode at 1920 x 1080, 43 of 44 controls kept 12.8-13.3 px text (a widget's
+    style lives in its shadow root, out of the page's CSS) and plot tick labels about 10 px."""
+    page = Page(browser, server)
+    try:
+        page.page.set_viewport_size({"width": 1920, "height": 1080})
+        before = page.page.evaluate(_CONTROL_TEXT_SIZES)
+        assert len(before) >= 20, before
+        page.page.locator(".w-present button").first.click()
+
+        def sizes():
+            controls = page.page.evaluate(_CONTROL_TEXT_SIZES)
+            small = [c for c in controls if c[2] < 18]
+            return (controls, small) if not small and len(controls) >= len(before) else None
+
+        controls, _ = _until(sizes, "every control's text at 18 px or more")
+        px = lambda v: float(v.strip('"').removesuffix("px"))  # noqa: E731
+        plots = _until(lambda: (p := page.page.evaluate(_PLOT_TEXT_SIZES)) and all(px(v) >= 18 for _, v in p) and p,
+                       "the plots' tick labels and titles at 18 px or more")
+        assert {kind for kind, _ in plots} >= {"tick"}, plots
+        # a tab opened afterwards is built with the same large text
+        page.page.locator(".bk-tab").filter(has_text="Camera").first.click()
+        _until(lambda: len(p := page.page.evaluate(_PLOT_TEXT_SIZES)) > len(plots) and all(px(v) >= 18 for _, v in p),
+               "the Camera tab's plots in large text too")
+        page.shot("presentation-1920")
+        # and back: the sizes a page had before
+        page.page.locator(".w-present button").first.click()
+        _until(lambda: sorted(c[2] for c in page.page.evaluate(_CONTROL_TEXT_SIZES))[-1] < 18, "the normal sizes again")
+        _until(lambda: all(px(v) < 18 for _, v in page.page.evaluate(_PLOT_TEXT_SIZES)), "the plots' normal sizes")
+    finally:
+        page.close()
