@@ -43,10 +43,11 @@ so that only the differences wait for the join.
 
 Each call to :meth:`Pipeline.run` records which steps ran and how long each
 took (``Result.ran``, in the order of a serial run) and its wall-clock time
-(``Result.elapsed``). A step that fails (a processing routine not written
-yet, a parameter combination the engine refuses) is reported in
-``Result.errors`` and the steps that need its output are skipped; nothing is
-cached for it. Results are exactly those of a fresh run (no approximation:
+(``Result.elapsed``). A step the engine refuses (a
+:class:`~camsim_core.errors.CamsimError`: a bad parameter combination, a
+method the camera cannot use) is reported in ``Result.errors`` and the
+steps that need its output are skipped; nothing is cached for it. Any other
+exception is a fault and is raised. Results are exactly those of a fresh run (no approximation:
 the cache only skips work whose inputs are unchanged).
 
 Scenes and monitors are shared read-only between pipelines (one process
@@ -330,10 +331,10 @@ class Pipeline:
         t0 = time.perf_counter()
         try:
             value = compute()
-        except (CamsimError, NotImplementedError, ValueError, TypeError, KeyError, IndexError, ArithmeticError) as exc:
+        except CamsimError as exc:  # bad input, said by the engine; any other exception is a fault, and raised
             self._memo.pop(name, None)
             result.ran.append((name, time.perf_counter() - t0))
-            result.errors[name] = f"{type(exc).__name__}: {exc}" if isinstance(exc, NotImplementedError) else str(exc)
+            result.errors[name] = str(exc)
             return None, None
         result.ran.append((name, time.perf_counter() - t0))
         token = next(_tokens)
@@ -459,11 +460,11 @@ class Pipeline:
                 # metrics.delta_e, with the ideal image's L*a*b* kept between moves; by chunks of pixels (cache
                 # sized, on the machine's cores for a large image)
                 xyz, ideal = metrics.cielab.check_pair(_data(result.xyz), _data(result.ideal_xyz))
-                to_lab = metrics.cielab._xyz_to_lab
                 ideal_lab = self._ideal_side(("cielab", t_ixyz), lambda: _lab_map(ideal, white))
                 if "cielab" in early:  # the same chunks, the same numbers
                     return map_pixels(lambda x, ref: metrics.delta_e_lab(x, ref)[:, None], early["cielab"], ideal_lab)[..., 0]
-                return map_pixels(lambda x, ref: metrics.delta_e_lab(to_lab(x, white), ref)[:, None], xyz, ideal_lab)[..., 0]
+                return map_pixels(lambda x, ref: metrics.delta_e_lab(metrics.xyz_to_lab(x, white, checked=True), ref)[:, None],
+                                  xyz, ideal_lab)[..., 0]
 
             _, result.delta_e = self._step("delta_e", (t_xyz, t_ixyz), cielab, result)
         if "scielab" in proc.metrics:
@@ -483,7 +484,7 @@ class Pipeline:
                                                        check_first=lab is None, check_second=False)
                 ideal_lab = self._ideal_side(("scielab", t_ixyz, spd), lambda: metrics.filtered_lab(ideal, spd, white))
                 if lab is None:
-                    lab = metrics.s_cielab._filtered_lab(xyz, spd, metrics.cielab.check_white(white))
+                    lab = metrics.filtered_lab(xyz, spd, white, checked=True)
                 return metrics.delta_e_lab(lab, ideal_lab)
 
             _, result.scielab = self._step("scielab", (t_xyz, t_ixyz, spd), scielab, result)
@@ -513,8 +514,8 @@ class Pipeline:
                 else:
                     spd = _samples_per_degree(result.rendered, proc.viewing)
                     checked = metrics.cielab.check_xyz(xyz, "xyz1")
-                    early[metric] = (spd, metrics.s_cielab._filtered_lab(checked, spd, white))
-            except (CamsimError, ValueError, TypeError, ArithmeticError):
+                    early[metric] = (spd, metrics.filtered_lab(checked, spd, white, checked=True))
+            except CamsimError:
                 continue
             result.ran.append((step, time.perf_counter() - t0))
         return early
@@ -529,10 +530,11 @@ def _merged(ran):
 
 
 def _lab_map(xyz, white):
-    """L*a*b* of an XYZ image by chunks of pixels (cache sized, on the machine's cores for a large image)."""
-    from .metrics.cielab import _xyz_to_lab
+    """L*a*b* of an XYZ image by chunks of pixels (cache sized, on the machine's cores for a large image). Its
+    values are not checked here: the error-map step checks each image once (:func:`~.metrics.cielab.check_pair`)."""
+    from .metrics import xyz_to_lab
 
-    return map_pixels(lambda x: _xyz_to_lab(x, white), xyz)
+    return map_pixels(lambda x: xyz_to_lab(x, white, checked=True), xyz)
 
 
 def _join(result, branch, tokens, camera):

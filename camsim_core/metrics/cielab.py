@@ -121,7 +121,7 @@ def rendered_pair(xyz1, xyz2, monitor):
     return a, b, to_a, to_b
 
 
-def xyz_to_lab(xyz, white):
+def xyz_to_lab(xyz, white, *, checked=False):
     """CIE 1976 L*a*b* of ``xyz`` relative to the white ``white`` (same units as ``xyz``).
 
     Parameters
@@ -130,16 +130,40 @@ def xyz_to_lab(xyz, white):
         Tristimulus values, any unit (cd/m^2, or relative).
     white : array_like (3,)
         XYZ of the reference white in the same unit (Y_n is not assumed 1 or 100).
+    checked : bool, optional
+        ``True`` when the caller checks ``xyz`` itself, once, with
+        :func:`check_xyz` (a float array (..., 3) of finite values): the
+        pass over the image that checks it is then skipped (the incremental
+        pipeline converts an image by chunks). The white is always checked.
 
     Returns
     -------
     ndarray (..., 3)
         L* (0-100 for the white), a*, b*: the formula of
         ``colour.XYZ_to_Lab`` (CIE 15:2004) with the white's own X_n, Y_n,
-        Z_n, written out in numpy.
+        Z_n, written out in numpy. float32 input stays float32.
+
+    Raises
+    ------
+    ParameterError
+        For a white that is not three positive finite numbers, or (unless
+        ``checked``) an ``xyz`` that is not finite values along a last axis of 3.
+
+    References
+    ----------
+    CIE 15:2004, Colorimetry, section 8.2.1.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> white = np.array([95.047, 100.0, 108.883])
+    >>> xyz_to_lab(white, white).round(6).tolist()
+    [100.0, 0.0, 0.0]
+    >>> float(xyz_to_lab(white * 0.18, white)[0].round(2))  # an 18 % grey: L* = 116 0.18^(1/3) - 16
+    49.5
     """
     w = check_white(white)
-    return _xyz_to_lab(check_xyz(xyz), w)
+    return _xyz_to_lab(np.asarray(xyz) if checked else check_xyz(xyz), w)
 
 
 def _xyz_to_lab(xyz, white):

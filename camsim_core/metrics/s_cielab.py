@@ -579,16 +579,60 @@ def _scielab_filter(xyz, spd):
     return _filter_image(xyz, spd)
 
 
-def filtered_lab(xyz, samples_per_degree, white):
+def filtered_lab(xyz, samples_per_degree, white, *, checked=False):
     """L*a*b* (H, W, 3) of the S-CIELAB filtered image: one side of :func:`scielab`.
 
-    The explorer caches it for the ideal image, which a noise or processing
-    change leaves as it is.
+    The incremental pipeline (:class:`camsim_core.cache.Pipeline`) keeps it
+    for the ideal image, which a noise or processing change leaves as it is.
+
+    Parameters
+    ----------
+    xyz : array_like (H, W, 3)
+        The XYZ image, any unit (the white's).
+    samples_per_degree : float
+        Image samples per degree of visual angle (:func:`samples_per_degree`).
+    white : array_like (3,)
+        XYZ of the white the L*a*b* is relative to.
+    checked : bool, optional
+        ``True`` when the caller has checked ``xyz`` with
+        :func:`~camsim_core.metrics.cielab.check_xyz` (a float array of
+        finite values): that pass over the image is skipped. Its shape,
+        ``samples_per_degree`` and the white are always checked.
+
+    Returns
+    -------
+    ndarray (H, W, 3)
+        L*, a*, b* of the filtered image: the same numbers as
+        ``xyz_to_lab(scielab_filter(xyz, samples_per_degree), white)``, made
+        band by band without holding the filtered XYZ image. float32 input
+        stays float32.
+
+    Raises
+    ------
+    ParameterError
+        For a bad image, rate or white (naming it).
+
+    References
+    ----------
+    X. Zhang and B. A. Wandell, "A spatial extension of CIELAB for digital
+    color image reproduction", SID Journal 5(1), 1997.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> white = np.array([95.047, 100.0, 108.883])
+    >>> xyz = np.random.default_rng(0).uniform(10.0, 30.0, (32, 40, 3))
+    >>> lab = filtered_lab(xyz, 30.0, white)
+    >>> lab.shape
+    (32, 40, 3)
+    >>> from camsim_core.metrics import scielab_filter, xyz_to_lab
+    >>> bool(np.allclose(lab, xyz_to_lab(scielab_filter(xyz, 30.0), white)))
+    True
     """
     spd = _check_spd(samples_per_degree)
     w = check_white(white)
-    a = check_xyz(xyz, "xyz")
-    if a.ndim != 3:
+    a = np.asarray(xyz) if checked else check_xyz(xyz, "xyz")
+    if a.ndim != 3 or a.shape[-1] != 3:
         raise ParameterError("xyz", f"must be an (H, W, 3) image, got shape {a.shape}")
     return _filtered_lab(a, spd, w)
 
