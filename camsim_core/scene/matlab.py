@@ -3,23 +3,53 @@
 Variables recognised, in this order:
 
 * ISETCam scene file: a struct ``scene`` with ``data.photons`` (H x W x N,
-  photons/s/sr/m^2/nm; ISET's 16-bit compressed form with ``data.dmin``,
-  ``data.dmax`` and ``data.bitDepth`` too), ``spectrum.wave`` (nm),
-  ``wAngular`` (horizontal field of view, degrees), ``distance`` (m) and
-  ``illuminant`` (``data.photons`` on ``spectrum.wave``);
-* ISETCam multispectral file (``ieSaveMultiSpectralImage``): ``mcCOEF``
-  (H x W x n basis coefficients), ``basis`` (``basis`` N x n, ``wave``),
-  optional ``imgMean`` (N), ``illuminant`` (``wave``, ``data`` in energy
-  units), ``fov`` (degrees) and ``dist`` (m); photons = mcCOEF x basis' + imgMean;
+  photons/s/sr/m^2/nm; ISET's older 16-bit compressed form with
+  ``data.dmin``, ``data.dmax`` and ``data.bitDepth`` too), ``spectrum.wave``
+  (nm), ``wAngular`` (horizontal field of view, degrees), ``distance`` (m)
+  and ``illuminant`` (see below);
+* ISETCam multispectral basis file (``sceneToFile(fname, scene, bType)``,
+  ``ieSaveMultiSpectralImage``): ``mcCOEF`` (H x W x n basis coefficients),
+  ``basis`` (``basis`` N x n, ``wave``), optional ``imgMean`` (N),
+  ``illuminant``, ``fov`` (degrees), ``dist`` (m) and ``name``;
+  photons = mcCOEF x basis' + imgMean, negative sums set to 0 (as ISETCam's
+  ``vcReadImage`` does);
+* ISETCam uncompressed multispectral file (``sceneToFile(fname, scene, [])``):
+  ``photons`` (H x W x N; ``vcReadImage`` also takes a numeric ``data``),
+  ``wave`` (or ``wavelength``), ``illuminant``, ``fov``, ``dist``, ``name``;
 * ICVL: ``rad`` with ``bands``; ARAD: ``cube`` with ``bands``; Harvard:
   ``ref``. Without a ``bands``/``wavelengths`` variable, a 31-band cube gets
   its dataset's sampling (ICVL and ARAD 400:10:700 nm, Harvard 420:10:720 nm)
   with a notice.
 
-ISETCam photons are converted to W/sr/m^2 per band. ICVL, ARAD and Harvard
-cubes carry no absolute unit: their values are taken as W/sr/m^2 per band
-with a notice (auto exposure makes the scale immaterial to a simulation).
-Those datasets have no geometry either: defaults with a notice.
+ISETCam illuminants, in the layouts ISETCam's own readers accept
+(``illuminantGet``, ``illuminantModernize``, ``vcReadImage``); the scene's
+illuminant is the radiance of a perfect white reflector, which sets the
+display scale of a rendering:
+
+* ``data.photons`` (photons/s/sr/m^2/nm) on ``spectrum.wave`` (or, inside a
+  scene struct, on the scene's wavelengths), as ``illuminantCreate`` and
+  ``sceneToFile`` write it. Integer photons are ISETCam's compressed form
+  and are decompressed as ``illuminantGet(il, 'photons')`` does:
+  ``ieUncompressData(codes, data.min, data.max, bits)`` with 32 bits for
+  uint32 and 16 for uint16 codes, i.e.
+  ``(max - min) / (2^bits - 1) x codes + min`` (``max / (2^bits - 1) x
+  codes + min`` when min = max). A spatial-spectral illuminant (one
+  spectrum per pixel) is not kept: a notice says so;
+* ``data`` in energy units (W/sr/m^2/nm) on ``wavelength`` (the older
+  layout ``illuminantModernize`` converts) or on ``wave`` (the layout
+  ``ieSaveMultiSpectralImage`` documents).
+
+A file without an illuminant, or ISETCam geometry, says so in a notice;
+ISETCam files without ``wAngular``/``fov`` or ``distance``/``dist`` get
+ISETCam's own defaults (``sceneInitSpatial``, ``sceneInitGeometry``,
+``ieSaveMultiSpectralImage``): a 10 degree field of view at 1.2 m.
+
+ISETCam photons are converted to W/sr/m^2 per band (E = h c / lambda per
+photon, times the band width); energy per nm to per band by the band width.
+ICVL, ARAD and Harvard cubes carry no absolute unit: their values are taken
+as W/sr/m^2 per band with a notice (auto exposure makes the scale
+immaterial to a simulation). Those datasets have no geometry either:
+defaults with a notice.
 
 Sizes come from the file before anything is allocated: for v7.3 from the
 HDF5 dataset shapes; for v5 from a pass over the file's data elements that
@@ -31,6 +61,10 @@ scipy's reader).
 MATLAB stores arrays column-major; HDF5 (v7.3) files therefore hold an
 H x W x N cube as (N, W, H). A v7.3 cube whose *last* axis is the band axis
 (written from Python) is taken as it is.
+
+The ISETCam layouts are read by hand from ISETCam's MATLAB sources (ISET/isetcam
+on GitHub: ``ieUncompressData``, ``illuminantGet``, ``illuminantModernize``,
+``sceneToFile``, ``vcReadImage``, ``sceneFromFile``); no Python package reads them.
 """
 
 from __future__ import annotations
@@ -46,9 +80,14 @@ from ..io.files import check_regular, open_regular
 from ..io.hdf5 import check_dataset, open_hdf5
 from ..io.matv5 import check_v5
 from ..spectra import Spectrum, sampling_wavelengths
-from ._intake import MAX_SCENE_VALUES, check_scene_size, finish_scene, photons_to_radiance
+from ._intake import MAX_SCENE_VALUES, check_scene_size, finish_scene, per_nm_to_per_band, photons_to_radiance
 
-__all__ = ["read_mat"]
+__all__ = ["read_mat", "ISETCAM_FOV", "ISETCAM_DISTANCE"]
+
+#: ISETCam's field of view (degrees) for a scene whose file gives none (``sceneInitSpatial``).
+ISETCAM_FOV = 10.0
+#: ISETCam's scene distance (m) for a file that gives none (``sceneInitGeometry``).
+ISETCAM_DISTANCE = 1.2
 
 _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 #: Largest uncompressed payload of a v5 file: the largest scene as float64, plus 64 MiB for the rest.
@@ -125,6 +164,13 @@ class _V5:
     def field(self, obj, name):
         return getattr(obj, name) if name in getattr(obj, "_fieldnames", ()) else None
 
+    def is_struct(self, obj):
+        return hasattr(obj, "_fieldnames")
+
+    def text(self, obj):
+        """A character variable or field as text, or None."""
+        return obj if isinstance(obj, str) else None
+
     def array(self, obj, what):
         if obj is None:
             return None
@@ -173,6 +219,8 @@ def _kind(obj):
         return "a struct"
     if isinstance(obj, str):
         return "text"
+    if hasattr(obj, "dtype"):  # an array or an HDF5 dataset: named without reading it
+        return f"{obj.dtype} values"
     return f"{np.asarray(obj).dtype} values"
 
 
@@ -204,6 +252,22 @@ class _H5:
         if isinstance(obj, h5py.Group) and name in obj:
             return obj[name]
         return None
+
+    def is_struct(self, obj):
+        import h5py
+
+        return isinstance(obj, h5py.Group)
+
+    def text(self, obj):
+        """A MATLAB character array (uint16 codes, ``MATLAB_class`` "char") as text, or None."""
+        import h5py
+
+        if not isinstance(obj, h5py.Dataset) or obj.dtype.kind != "u" or obj.size > 4096:
+            return None
+        if obj.attrs.get("MATLAB_class") not in (b"char", "char"):
+            return None
+        check_dataset(obj, self.shown)
+        return "".join(chr(c) for c in np.asarray(obj[()]).T.ravel().tolist() if 0 < c < 0xD800)
 
     def array(self, obj, what):
         import h5py
@@ -279,8 +343,107 @@ def _wavelengths(src, n, default=None):
     raise FileFormatError(src.shown, f"no wavelength variable ({', '.join(_WAVELENGTH_NAMES)}) for the {n} bands")
 
 
+def _uncompress(src, codes, lo, hi, bits, what):
+    """ISETCam's ``ieUncompressData``: ``s / (2^bits - 1) x codes + min``, s = max - min (max when they are equal)."""
+    if lo is None or hi is None:
+        raise FileFormatError(src.shown, f"integer {what} (ISETCam's compressed form) without its minimum and maximum")
+    if not lo <= hi:
+        raise FileFormatError(src.shown, f"{what}: minimum {lo:g} above maximum {hi:g}")
+    span = hi if lo == hi else hi - lo
+    return span / (2.0**bits - 1) * codes.astype(float) + lo
+
+
+def _check_wavelengths(src, w, what):
+    if w.size == 0 or not (np.all(w > 0) and np.all(np.diff(w) > 0)):
+        raise FileFormatError(src.shown, f"{what} must be positive wavelengths (nm) in increasing order")
+    return w
+
+
+def _isetcam_illuminant(src, il, what, scene_wave=None):
+    """The :class:`Spectrum` (W/sr/m^2 per band) of an ISETCam illuminant struct, and notices.
+
+    The layouts are those of the module docstring. Returns ``(None, [notice])``
+    for a spatial-spectral illuminant; anything else that is not an
+    illuminant is a :class:`FileFormatError` naming the field.
+    """
+    if not src.is_struct(il):
+        raise FileFormatError(src.shown, f"{what} holds {_kind(il)}, expected an ISETCam illuminant struct")
+    data = src.field(il, "data")
+    wave = None
+    for field, name in ((src.field(src.field(il, "spectrum"), "wave"), "spectrum.wave"),
+                        (src.field(il, "wavelength"), "wavelength"), (src.field(il, "wave"), "wave")):
+        if field is not None:
+            wave = _check_wavelengths(src, _vector(src, field, f"{what}.{name}"), f"{what}.{name}")
+            break
+    if src.is_struct(data):
+        raw = src.array(src.field(data, "photons"), f"{what}.data.photons")
+        if raw is None:
+            raise FileFormatError(src.shown, f"{what}.data has no photons")
+        raw = np.asarray(raw)
+        if raw.dtype.kind == "u" and raw.dtype.itemsize in (2, 4):  # illuminantGet's uint16 and uint32 codes
+            bits = 8 * raw.dtype.itemsize
+            lo = _scalar(src, src.field(data, "min"), f"{what}.data.min")
+            hi = _scalar(src, src.field(data, "max"), f"{what}.data.max")
+            values = _uncompress(src, raw, lo, hi, bits, f"{what}.data.photons")
+        else:
+            values = raw.astype(float)
+        unit, field = "photons", f"{what}.data.photons"
+    elif data is not None:
+        values = np.asarray(src.array(data, f"{what}.data"), float)
+        unit, field = "energy", f"{what}.data"
+    else:
+        raise FileFormatError(src.shown, f"{what} has no data (ISETCam keeps data.photons, or energy in data)")
+    if wave is None:  # illuminantGet(il, 'wave', scene): a scene's illuminant may use the scene's wavelengths
+        wave = scene_wave
+    if wave is None:
+        raise FileFormatError(src.shown, f"{what} has no wavelengths (spectrum.wave, wavelength or wave)")
+    if values.size != wave.size:
+        if values.ndim == 3 and values.size % wave.size == 0:
+            return None, [f"{field} holds a spatial-spectral illuminant ({values.size // wave.size} spectra); "
+                          "it is not kept, so renderings scale by the image"]
+        raise FileFormatError(src.shown, f"{field} has {values.size} values for {wave.size} wavelengths")
+    values = values.ravel()
+    if not np.all(np.isfinite(values)):
+        raise FileFormatError(src.shown, f"{field} holds NaN or infinite values")
+    if values.min() < 0 or not values.max() > 0:
+        raise FileFormatError(src.shown, f"{field} must be non-negative and not all zero "
+                                         f"(values {values.min():g}..{values.max():g})")
+    per_band = photons_to_radiance(values, wave) if unit == "photons" else per_nm_to_per_band(values, wave)
+    return _spectrum(src, wave, per_band, _text_or(src, src.field(il, "name"), "ISETCam illuminant"), what), []
+
+
+def _text_or(src, obj, default):
+    text = src.text(obj) if obj is not None else None
+    return text[:256] if text else default
+
+
+def _file_illuminant(src, label):
+    """The illuminant variable of an ISETCam multispectral file, and notices."""
+    if "illuminant" not in src.names():
+        return None, [f"no illuminant in the ISETCam {label}: renderings scale by the image"]
+    return _isetcam_illuminant(src, src.get("illuminant"), "illuminant")
+
+
+def _isetcam_geometry(src, fov, distance, width, fov_name, distance_name):
+    """(angular resolution, distance, notices): the file's, or ISETCam's defaults with a notice."""
+    notices = []
+    if fov is None:
+        fov = ISETCAM_FOV
+        notices.append(f"no {fov_name} in the file: ISETCam's default field of view, {ISETCAM_FOV:g} degrees, assumed")
+    if distance is None:
+        distance = ISETCAM_DISTANCE
+        notices.append(f"no {distance_name} in the file: ISETCam's default distance, {ISETCAM_DISTANCE:g} m, assumed")
+    return (width / fov,) * 2, distance, notices
+
+
+def _variable_scalar(src, name, positive=True):
+    return _scalar(src, src.get(name), name, positive=positive) if name in src.names() else None
+
+
 def _isetcam_scene(src, label):
     s = src.get("scene")
+    if not src.is_struct(s):
+        raise FileFormatError(src.shown, f"variable 'scene' holds {_kind(s)}, expected an ISETCam scene struct")
     data = src.field(s, "data")
     wave = _vector(src, src.field(src.field(s, "spectrum"), "wave"), "scene.spectrum.wave")
     if wave is None:
@@ -295,22 +458,20 @@ def _isetcam_scene(src, label):
         if not (dmax >= dmin and depth == int(depth) and 1 <= depth <= 32):
             raise FileFormatError(src.shown, f"scene.data: dmin {dmin:g}, dmax {dmax:g}, bitDepth {depth:g}; expected "
                                              "dmin <= dmax and a bit depth of 1 to 32")
-        photons = dmin + (dmax - dmin) * photons.astype(float) / (2.0**depth - 1)
+        photons = _uncompress(src, photons, dmin, dmax, depth, "scene.data.photons")
     if photons.shape[2] != wave.size:
         raise FileFormatError(src.shown, f"scene.data.photons has {photons.shape[2]} bands for {wave.size} wavelengths")
-    fov = _scalar(src, src.field(s, "wAngular"), "scene.wAngular", positive=True)
-    ar = None if not fov else (photons.shape[1] / fov,) * 2
-    illum = None
+    ar, distance, notices = _isetcam_geometry(
+        src, _scalar(src, src.field(s, "wAngular"), "scene.wAngular", positive=True),
+        _scalar(src, src.field(s, "distance"), "scene.distance", positive=True), photons.shape[1],
+        "scene.wAngular", "scene.distance")
     il = src.field(s, "illuminant")
-    if il is not None:
-        ip = _vector(src, src.field(src.field(il, "data"), "photons"), "scene.illuminant.data.photons")
-        iw = _vector(src, src.field(src.field(il, "spectrum"), "wave"), "scene.illuminant.spectrum.wave")
-        if ip is not None and iw is not None and ip.size == iw.size:
-            illum = _spectrum(src, iw, photons_to_radiance(ip, iw), "ISETCam illuminant", "scene.illuminant")
-    name = src.field(s, "name")
-    return dict(data=photons_to_radiance(photons, wave), wavelengths=wave,
-                distance=_scalar(src, src.field(s, "distance"), "scene.distance", positive=True),
-                angular_resolution=ar, illuminant=illum, name=str(name)[:256] if isinstance(name, str) else label,
+    if il is None:
+        illum, more = None, ["no illuminant in the ISETCam scene: renderings scale by the image"]
+    else:
+        illum, more = _isetcam_illuminant(src, il, "scene.illuminant", _check_wavelengths(src, wave, "scene.spectrum.wave"))
+    return dict(data=photons_to_radiance(photons, wave), wavelengths=wave, distance=distance, angular_resolution=ar,
+                illuminant=illum, name=_text_or(src, src.field(s, "name"), label), notices=notices + more,
                 comments="ISETCam scene (photons converted to W/sr/m^2 per band)")
 
 
@@ -320,6 +481,17 @@ def _spectrum(src, wavelengths, values, name, what):
         return Spectrum(wavelengths, values, name)
     except CamsimError as exc:
         raise FileFormatError(src.shown, f"{what}: {exc}") from None
+
+
+def _isetcam_file_fields(src, photons, wave, label, kind):
+    """The scene fields shared by ISETCam's two multispectral files (photons and basis)."""
+    ar, distance, notices = _isetcam_geometry(src, _variable_scalar(src, "fov"), _variable_scalar(src, "dist"),
+                                              photons.shape[1], "'fov'", "'dist'")
+    illum, more = _file_illuminant(src, kind)
+    name = _text_or(src, src.get("name"), label) if "name" in src.names() else label
+    return dict(data=photons_to_radiance(photons, wave), wavelengths=wave, distance=distance, angular_resolution=ar,
+                illuminant=illum, name=name, notices=notices + more,
+                comments=f"ISETCam {kind} (photons converted to W/sr/m^2 per band)")
 
 
 def _isetcam_multispectral(src, label):
@@ -347,17 +519,29 @@ def _isetcam_multispectral(src, label):
         mean = _vector(src, src.get("imgMean"), "imgMean")
         if mean is not None and mean.size == wave.size:
             photons += mean
-    fov = _scalar(src, src.get("fov"), "fov", positive=True) if "fov" in src.names() else None
-    illum = None
-    if "illuminant" in src.names():
-        il = src.get("illuminant")
-        iw, idata = _vector(src, src.field(il, "wave"), "illuminant.wave"), _vector(src, src.field(il, "data"), "illuminant.data")
-        if iw is not None and idata is not None and iw.size == idata.size:
-            illum = _spectrum(src, iw, idata, "ISETCam illuminant (energy units)", "illuminant")
-    return dict(data=photons_to_radiance(np.clip(photons, 0.0, None), wave), wavelengths=wave,
-                distance=_scalar(src, src.get("dist"), "dist", positive=True) if "dist" in src.names() else None,
-                angular_resolution=None if not fov else (w / fov,) * 2, illuminant=illum, name=label,
-                comments="ISETCam multispectral file (basis x coefficients, photons converted to W/sr/m^2 per band)")
+    return _isetcam_file_fields(src, np.clip(photons, 0.0, None), wave, label,
+                                "multispectral file (basis x coefficients)")
+
+
+def _isetcam_photons_file(src, label):
+    var = "photons" if "photons" in src.names() else "data"
+    wave_var = "wave" if "wave" in src.names() else "wavelength"
+    wave = _vector(src, src.get(wave_var), f"variable {wave_var!r}")
+    if wave is None or wave.size == 0:
+        raise FileFormatError(src.shown, f"variable {wave_var!r} holds no wavelengths")
+    photons = _cube(src, src.get(var), wave.size, f"variable {var!r}")
+    if photons.shape[2] != wave.size:
+        raise FileFormatError(src.shown, f"variable {var!r} has {photons.shape[2]} bands for {wave.size} wavelengths")
+    return _isetcam_file_fields(src, photons, wave, label, "multispectral file (photons)")
+
+
+def _is_photons_file(src, names):
+    """ISETCam's uncompressed file: ``photons`` (or a numeric ``data``) with ``wave`` (or ``wavelength``)."""
+    if not ({"wave", "wavelength"} & names):
+        return False
+    if "photons" in names:
+        return True
+    return "data" in names and not src.is_struct(src.get("data"))
 
 
 def _dataset_cube(src, var, dataset, label):
@@ -424,12 +608,14 @@ def read_mat(path, *, negative="error", max_values=None, content=None, shown=Non
             fields = _isetcam_scene(src, label)
         elif "mcCOEF" in names and "basis" in names:
             fields = _isetcam_multispectral(src, label)
+        elif _is_photons_file(src, names):
+            fields = _isetcam_photons_file(src, label)
         else:
             found = [(v, d) for v, d in _CUBES if v in names]
             if not found:
                 raise FileFormatError(
                     shown, f"no hyperspectral variable found (variables: {', '.join(sorted(names)) or 'none'}); expected "
-                    "'rad' (ICVL), 'cube' (ARAD), 'ref' (Harvard), an ISETCam 'scene' struct, or 'mcCOEF' with 'basis'")
+                    "'rad' (ICVL), 'cube' (ARAD), 'ref' (Harvard), an ISETCam 'scene' struct, 'mcCOEF' with 'basis', or 'photons' with 'wave'")
             fields = _dataset_cube(src, *found[0], label)
         notices = fields.pop("notices", [])
         return finish_scene(shown, fields.pop("data"), fields.pop("wavelengths"), notices=notices, negative=negative,
