@@ -14,7 +14,17 @@ raw converter needs (Adobe, *Digital Negative Specification* 1.4.0.0):
   (D65's white, Y = 1, gives a largest camera channel of 1), and
   ``AsShotNeutral`` the camera's response to that white;
 * ``ImageDescription``: camsim's JSON metadata of the image (sensitivities,
-  tile, exposure...), so that :func:`load_raw` of a camsim DNG gets them back.
+  tile, exposure...), so that :func:`load_raw` of a camsim DNG gets them back;
+* an EXIF IFD (``ExifTag`` 34665 in IFD 0, as cameras write it; EXIF 2.3)
+  with the tags raw tools show: ``ExposureTime`` (s) and ``FNumber`` as
+  rationals, ``ISOSpeedRatings`` = 100 x the analog gain (ISO 100 at unit
+  gain, the base sensitivity a camera quotes) and ``ExifVersion`` 0230.
+  tifffile writes no EXIF IFD (it refuses an ``ExifTag`` among the extra
+  tags), so the IFD is appended to tifffile's file by hand (TIFF 6.0
+  section 2 layout), and a placeholder tag that tifffile writes in IFD 0 at
+  the place ``ExifTag`` sorts to is renamed ``ExifTag`` and pointed at it.
+  dcraw and LibRaw read ISO only from the EXIF IFD; exiftool validates
+  the file without a warning.
 
 Written with tifffile (there is no maintained Python DNG writer on PyPI);
 validated by LibRaw itself (``tests/test_dng.py``): rawpy opens the file,
@@ -38,6 +48,8 @@ __all__ = ["write_dng", "load_raw", "color_matrix", "plane_order", "MAX_RAW_BYTE
 #: Largest raw file :func:`load_raw` opens (LibRaw then applies its own allocation limits).
 MAX_RAW_BYTES = 1 << 30
 _LETTERS = {"R": 0, "G": 1, "B": 2, "C": 3, "M": 4, "Y": 5, "W": 6}
+#: An unassigned tag written in ExifTag's place (the tag before 34665, so IFD 0 stays sorted when it is renamed).
+_EXIF_PLACEHOLDER = 34664
 
 
 def plane_order(sensitivities, wavelengths):
@@ -87,6 +99,17 @@ def _srational(values, denominator=10000):
     return out
 
 
+def _rational(value, what):
+    """A positive number as an unsigned TIFF RATIONAL (numerator, denominator), the closest with 32-bit terms."""
+    v = float(value)
+    if not (np.isfinite(v) and 0 < v < 2**32 - 1):
+        raise ParameterError(what, f"must be a positive number below 2^32 to be written to a DNG, got {value!r}")
+    fr = Fraction(v).limit_denominator(min(2**32 - 1, int((2**32 - 1) / v)))
+    if not 0 < fr.numerator <= 2**32 - 1:
+        raise ParameterError(what, f"{v:g} cannot be written as a rational of 32-bit terms")
+    return fr.numerator, fr.denominator
+
+
 def _check_raw(image):
     if not getattr(image, "mosaiced", False) or image.tile is None:
         raise ParameterError("out", "a DNG holds a raw mosaic; write the image before demosaicing (no --demosaic/--render)")
@@ -100,12 +123,52 @@ def _check_raw(image):
         raise ParameterError("out", "a DNG holds integers of up to 16 bits; simulate with --bits 1..16 (not --unquantized)")
 
 
-def write_dng(image, path, *, model="camsim"):
-    """Write a simulated raw :class:`~camsim_core.image.CameraImage` as a CFA DNG (see the module docstring)."""
+def write_dng(image, path, *, model="camsim", analog_gain=1.0):
+    """Write a simulated raw :class:`~camsim_core.image.CameraImage` as a CFA DNG (see the module docstring).
+
+    Parameters
+    ----------
+    image : CameraImage
+        A quantized (at most 16 bits), mosaiced image of a 3-colour tile.
+    path : path-like
+        The ``.dng`` file, written atomically.
+    model : str
+        The camera's name (``Model``, ``UniqueCameraModel``).
+    analog_gain : float
+        The camera's analog gain (``Camera.analog_gain``: 1 unless an
+        electron-level sensor sets another), which the image does not
+        carry; written as ``ISOSpeedRatings`` = 100 x ``analog_gain``
+        (at most 65535).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ParameterError
+        For an image a DNG cannot hold (demosaiced, unquantized, over 16
+        bits, more than 3 colours), or an exposure, f-number or gain that is
+        not a positive number.
+
+    Examples
+    --------
+    >>> import tempfile, camsim_core as cs
+    >>> raw = cs.simulate(cs.load_scene("bfgb128"), cs.load_camera("kodak-dcs200-ir"), exposure=0.5)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     write_dng(raw, f"{d}/x.dng").name
+    'x.dng'
+    """
     import tifffile
 
     path = Path(path)
     _check_raw(image)
+    exposure = _rational(image.exposure, "exposure")
+    f_number = _rational(image.f_stop, "f_stop")
+    g = float(analog_gain)
+    if not (np.isfinite(g) and g > 0):
+        raise ParameterError("analog_gain", f"must be a positive number, got {analog_gain!r}")
+    iso = int(min(65535, max(1, round(100.0 * g))))
     colours = plane_order(image.sensitivities, image.wavelengths)
     pattern = colours[np.asarray(image.tile)]
     matrix, neutral = color_matrix(image.sensitivities, image.wavelengths)
@@ -131,18 +194,48 @@ def write_dng(image, path, *, model="camsim"):
         (271, "s", 0, "camsim", True),  # Make
         (272, "s", 0, model, True),  # Model
         (274, "H", 1, (1,), True),  # Orientation
+        (_EXIF_PLACEHOLDER, "I", 1, (0,), True),  # becomes ExifTag (34665) in _with_exif_ifd
     ]
     codes = {"B": 1, "s": 2, "H": 3, "I": 4, "Q": 5, "q": 10}  # TIFF types; Q RATIONAL, q SRATIONAL
     tags = [(c, codes[d], n, v, w) for c, d, n, v, w in tags]
 
     def write(f):
         buf = io.BytesIO()
-        tifffile.imwrite(buf, data, photometric=32803, subfiletype=0, software="camsim",
+        tifffile.imwrite(buf, data, photometric=32803, subfiletype=0, software="camsim", byteorder="<", bigtiff=False,
                          description=json.dumps(meta), extratags=tags, metadata=None)
-        f.write(buf.getvalue())
+        f.write(_with_exif_ifd(buf.getvalue(), exposure, f_number, iso))
 
     atomic_write(path, write)
     return path
+
+
+def _with_exif_ifd(tiff, exposure, f_number, iso):
+    """A little-endian classic TIFF's bytes with an EXIF IFD appended, IFD 0's placeholder made ``ExifTag`` (34665).
+
+    The IFD (TIFF 6.0, section 2): a 2-byte entry count, 12-byte entries in
+    ascending tag order (tag, type, count, value or offset), a 4-byte zero
+    (no next IFD), then the two RATIONAL values the entries point to.
+    """
+    import struct
+
+    import tifffile
+
+    with tifffile.TiffFile(io.BytesIO(tiff)) as tf:
+        tag = tf.pages[0].tags[_EXIF_PLACEHOLDER]
+        entry, pointer = tag.offset, tag.valueoffset
+    start = len(tiff) + len(tiff) % 2  # IFDs begin on a word boundary
+    entries = 4
+    values = start + 2 + 12 * entries + 4
+    ifd = struct.pack("<H", entries)
+    ifd += struct.pack("<HHII", 33434, 5, 1, values)  # ExposureTime, RATIONAL
+    ifd += struct.pack("<HHII", 33437, 5, 1, values + 8)  # FNumber, RATIONAL
+    ifd += struct.pack("<HHIHH", 34855, 3, 1, iso, 0)  # ISOSpeedRatings, SHORT
+    ifd += struct.pack("<HHI4s", 36864, 7, 4, b"0230")  # ExifVersion, UNDEFINED
+    ifd += struct.pack("<I", 0) + struct.pack("<IIII", *exposure, *f_number)
+    out = bytearray(tiff) + b"\0" * (start - len(tiff)) + ifd
+    struct.pack_into("<H", out, entry, 34665)  # ExifTag, type LONG, count 1 as written
+    struct.pack_into("<I", out, pointer, start)
+    return bytes(out)
 
 
 def _camsim_metadata(path):
