@@ -13,6 +13,7 @@ Rendering with sRGB Reflectance", EGSR 2019.
 
 from __future__ import annotations
 
+import io
 import os
 import struct
 import warnings
@@ -23,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CamsimError, FileFormatError, ParameterError
-from ..io.files import check_regular
+from ..io.files import check_regular, read_regular
 from ..spectra import resample
 from ._intake import MAX_SCENE_VALUES
 from .scene import Scene
@@ -110,6 +111,11 @@ PILLOW_ERRORS = (OSError, SyntaxError, ValueError, EOFError, struct.error, zlib.
 _EIGHT_BIT_MODES = ("1", "L", "LA", "P", "PA", "RGB", "RGBA", "RGBX", "RGBa", "CMYK", "YCbCr")
 #: 16-bit grey modes, read at full precision.
 _SIXTEEN_BIT_MODES = ("I;16", "I;16L", "I;16B", "I;16N")
+#: Modes Pillow gives 16-bit colour (or grey with alpha) files, decoding them to 8 bits: such files are decoded
+#: by imagecodecs (PNG) or tifffile (TIFF) instead, which keep the 16 bits.
+_SIXTEEN_BIT_COLOUR_MODES = ("RGB", "RGBA", "LA")
+#: EXIF tag of the orientation (TIFF 6.0 tag 274): how the stored pixels are turned for display.
+_ORIENTATION = 0x0112
 
 
 def _without_path(exc, path, shown):
@@ -160,6 +166,72 @@ def opened_image(path, shown=None, kind="image"):
                                      f"{_without_path(exc, path, shown)})") from None
 
 
+def _sixteen_bit_colour(im):
+    """Whether Pillow opened a 16-bit-per-channel colour PNG or TIFF (which it would decode to 8 bits)."""
+    if im.format not in ("PNG", "TIFF") or im.mode not in _SIXTEEN_BIT_COLOUR_MODES or not im.tile:
+        return False
+    args = im.tile[0].args
+    rawmode = args if isinstance(args, str) else (args[0] if isinstance(args, tuple) and args else "")
+    return isinstance(rawmode, str) and ";16" in rawmode
+
+
+def _decode_sixteen_bit(im, path, shown, h, w):
+    """(H, W, C) uint16 values of a 16-bit colour PNG (imagecodecs, libpng) or TIFF (tifffile), first image only.
+
+    The size was checked from the header; the file may hold at most 8 bytes a pixel
+    (6 for 16-bit RGB) plus 1 MiB of other chunks.
+    """
+    import imagecodecs
+    import tifffile
+
+    channels = {"RGB": 3, "RGBA": 4, "LA": 2}[im.mode]
+    data = read_regular(path, max_bytes=w * h * 8 + 2**20, shown=shown)
+    try:
+        if im.format == "PNG":
+            a = imagecodecs.png_decode(data)
+        else:
+            with tifffile.TiffFile(io.BytesIO(data)) as tf:
+                page = tf.pages[0]
+                if tuple(page.shape) != (h, w, channels):
+                    raise FileFormatError(shown, f"its first TIFF image is {tuple(page.shape)}, expected {h} x {w} x {channels}")
+                a = page.asarray()
+    except CamsimError:
+        raise
+    except (RuntimeError, ValueError, TypeError, OSError, EOFError, struct.error, zlib.error, KeyError,
+            IndexError) as exc:  # imagecodecs' errors are RuntimeErrors, tifffile's ValueErrors
+        raise FileFormatError(shown, f"not a readable 16-bit image ({type(exc).__name__}: "
+                                     f"{_without_path(exc, path, shown)})") from None
+    a = np.asarray(a)
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.shape != (h, w, channels) or a.dtype != np.uint16:
+        raise FileFormatError(shown, f"decoded to an array of shape {a.shape} and type {a.dtype}, "
+                                     f"expected {h} x {w} x {channels} 16-bit values")
+    return a
+
+
+def _orientation(im):
+    """The EXIF orientation (1-8) of an opened image, 1 when it has none."""
+    value = im.getexif().get(_ORIENTATION, 1)
+    return value if isinstance(value, int) and 1 <= value <= 8 else 1
+
+
+def _upright_planes(a, im):
+    """``a`` (H, W, C) turned upright as ``im``'s EXIF orientation says, by Pillow's ``ImageOps.exif_transpose``.
+
+    Pillow holds no 16-bit colour image, so each plane is turned as a 16-bit grey image carrying the photo's EXIF.
+    """
+    from PIL import Image, ImageOps
+
+    exif = im.getexif().tobytes()
+    planes = []
+    for k in range(a.shape[2]):
+        plane = Image.fromarray(np.ascontiguousarray(a[:, :, k]))
+        plane.info["exif"] = exif
+        planes.append(np.asarray(ImageOps.exif_transpose(plane)))
+    return np.stack(planes, axis=2)
+
+
 def read_photo(path, *, max_values=None, shown=None, **options):
     """A photo file (PNG, JPEG, TIFF, BMP; 8 or 16 bits) or ``photo-NAME`` of :data:`SAMPLE_PHOTOS` as a scene.
 
@@ -170,11 +242,42 @@ def read_photo(path, *, max_values=None, shown=None, **options):
     beyond 16 bits) is a :class:`~camsim_core.errors.FileFormatError`
     naming ``shown`` (default: the file's name). ``options`` go to
     :func:`scene_from_rgb`.
+
+    The photo is turned upright as its EXIF orientation says (a phone's
+    portrait JPEG is stored sideways with orientation 6 or 8), by Pillow's
+    ``ImageOps.exif_transpose``. 16-bit grey keeps its 65536 levels through
+    Pillow; 16-bit colour PNGs are decoded by imagecodecs (libpng) and
+    16-bit colour TIFFs by tifffile, because Pillow reduces 16-bit colour
+    to 8 bits.
+
+    Parameters
+    ----------
+    path : path-like or str
+        The photo file, or ``"photo-NAME"``.
+    max_values : int, optional
+        A tighter bound on pixels x bands (an upload's limit).
+    shown : str, optional
+        The name messages give the file.
+    **options
+        Passed to :func:`scene_from_rgb` (``illuminant``, ``luminance``,
+        ``distance``, ``angular_resolution``, ``wavelengths``).
+
+    Returns
+    -------
+    Scene
+        Radiance in W/sr/m^2 per band, the photo's rows and columns as it is displayed.
+
+    Examples
+    --------
+    >>> read_photo("photo-coffee").shape
+    (400, 600, 31)
     """
     key = str(path)
     if key.lower().startswith("photo-") and key[6:].lower() in SAMPLE_PHOTOS:
         rgb = _sample_photo(key[6:].lower()) / 255.0
         return scene_from_rgb(rgb, name=key.lower(), **options)
+    from PIL import ImageOps
+
     path = Path(path)
     shown = path.name if shown is None else shown
     n = len(np.atleast_1d(options.get("wavelengths", DEFAULT_WAVELENGTHS)))
@@ -186,24 +289,34 @@ def read_photo(path, *, max_values=None, shown=None, **options):
         if w * h * n > limit:
             raise FileFormatError(shown, f"{w} x {h} pixels x {n} bands is more than the {limit} values allowed; "
                                          "downsize the photo")
-        if im.mode in _SIXTEEN_BIT_MODES or im.mode == "I":
-            a = np.asarray(im)
+        if _sixteen_bit_colour(im):
+            a = _decode_sixteen_bit(im, path, shown, h, w)
+            im.load()  # an eXIf chunk after the pixels is read with them
+            if _orientation(im) != 1:
+                a = _upright_planes(a, im)
+            full = 65535.0
+        elif im.mode in _SIXTEEN_BIT_MODES or im.mode == "I":
+            im.load()
+            a = np.asarray(ImageOps.exif_transpose(im) if _orientation(im) != 1 else im)
             full = 65535.0
         elif im.mode in _EIGHT_BIT_MODES:
             im.load()  # a transparency chunk after the pixels is read with them
+            upright = ImageOps.exif_transpose(im) if _orientation(im) != 1 else im
             # RGBA first when a palette marks a transparent colour (Pillow's advice)
-            a = np.asarray(im.convert("RGBA" if "transparency" in im.info else "RGB"))
+            a = np.asarray(upright.convert("RGBA" if "transparency" in im.info else "RGB"))
             full = 255.0
         else:
             raise FileFormatError(shown, f"image mode {im.mode!r} is not a photo's; expected 8 or 16 bits per channel "
                                          "(grey, palette or RGB)")
-    if a.shape[:2] != (h, w) or a.dtype.kind not in "biu":
+    if sorted(a.shape[:2]) != sorted((h, w)) or a.dtype.kind not in "biu":
         raise FileFormatError(shown, f"decoded to an array of shape {a.shape} and type {a.dtype}, "
                                      f"expected {h} x {w} whole numbers")
     if a.size and (a.min() < 0 or a.max() > full):
         raise FileFormatError(shown, f"holds values {a.min()}..{a.max()}, outside 0..{full:g} of "
                                      f"{'16' if full > 255 else '8'}-bit data")
     if a.ndim == 2:
-        a = np.repeat(a[:, :, None], 3, axis=2)
+        a = a[:, :, None]
+    if a.shape[2] < 3:  # grey, or grey with alpha
+        a = np.repeat(a[:, :, :1], 3, axis=2)
     rgb = a[:, :, :3].astype(float) / full
     return scene_from_rgb(rgb, name=path.stem, **options)
