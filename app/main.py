@@ -35,6 +35,7 @@ from .physical import SensorControls
 from .quality import QualityView
 from .safe_text import md_text
 from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, VIEW_PARAMETERS, ExplorerState, Runner
+from .typed_text import TypedTextWatch
 from .upload import BoundedUpload
 from .views import CameraView, ResultsView, SceneView, Text, _after, once, when_page_ready
 
@@ -97,6 +98,9 @@ FAVICON = ("data:image/svg+xml,%3Csvg xmlns='http://www.w3.org/2000/svg' viewBox
            "%3Crect y='1' width='1' height='1' fill='%232050d0'/%3E%3Crect x='1' y='1' width='1' height='1' "
            "fill='%2300a050'/%3E%3C/svg%3E")
 
+#: Where a refusal shows: fixed at the window's top right, below the header, over the page.
+_FLOATING = {"position": "fixed", "top": "64px", "right": "16px", "z-index": "1050", "max-width": "80vw",
+             "box-shadow": "0 4px 16px rgba(0, 0, 0, 0.25)"}
 #: Tab titles that do not fit (presentation mode, a narrow window) go to a second row, not out of sight.
 _TAB_TITLES_WRAP = ".bk-header { overflow: visible; } .bk-headers-wrapper { flex-wrap: wrap; overflow: visible; }"
 _BIG = ":host { font-size: var(--camsim-text, inherit); } p, span, div, label, td, th, li { font-size: inherit; }"
@@ -457,8 +461,18 @@ def _controls(state, results):
         ]
         return [params_down, pn.pane.Markdown("Load parameters (JSON):"), params_up, *downloads]
 
+    # text a number box throws away in the browser ("abc" in the exposure box) gets a message naming the box
+    numbers = {"w-alpha": ("Mixture alpha", "alpha"), "w-distance": ("Distance (m)", "distance"),
+               "w-exposure": ("Exposure (s)", "exposure"), "w-light": ("Light level", "light"),
+               "w-fstop": ("f-stop", "f_stop"), "w-noise": ("Noise sigma", "noise_sigma"), "w-seed": ("Noise seed", "seed")}
+    typed = TypedTextWatch(fields={css: label for css, (label, _) in numbers.items()}, integer_fields=["w-seed"],
+                           values={css: partial(getattr, state, name) for css, (_, name) in numbers.items()},
+                           css_classes=["w-typed-watch"], width=0, height=0, margin=0)
+    typed.param.watch(lambda event: setattr(state, "message", typed.refused), "refused")
+
     card = dict(sizing_mode="stretch_width", margin=(4, 0))
     return [
+        typed,
         pn.Card(scene, chart_options, pn.pane.Markdown("Upload a scene (.npz, .mat, a photo, or a .zip of a .Simg, an ENVI .hdr or "
                                         "band PNGs):", visible=_options["upload"]), upload, light, title="Scene", **card),
         pn.Card(camera, alpha, centers, widths, optics, mosaic, tile, title="Camera", **card),
@@ -656,8 +670,10 @@ def create_app(scene=None):
     views = {"state": state}
     views["results"] = results = ResultsView(state)
     # the messages quote what users typed, linked or uploaded: shown as text (``md_text``), never as markup
+    # the refusal floats over the page's top right corner: in sight wherever the page is scrolled to, and the
+    # views below do not move when it comes and goes
     alert = pn.pane.Alert(md_text(state.message), alert_type="danger", visible=bool(state.message),
-                          css_classes=["camsim-alert"], sizing_mode="stretch_width")
+                          css_classes=["camsim-alert"], styles=_FLOATING, width=560)
     notice = pn.pane.Alert(md_text(state.notice), alert_type="warning", visible=bool(state.notice),
                            css_classes=["camsim-notice"], sizing_mode="stretch_width")
 

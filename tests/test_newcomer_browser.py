@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from app_helpers import Page, server_log, wait_until
@@ -198,5 +200,50 @@ def test_presentation_mode_makes_every_control_and_plot_text_readable_at_1920(br
         page.page.locator(".w-present button").first.click()
         _until(lambda: sorted(c[2] for c in page.page.evaluate(_CONTROL_TEXT_SIZES))[-1] < 18, "the normal sizes again")
         _until(lambda: all(px(v) < 18 for _, v in page.page.evaluate(_PLOT_TEXT_SIZES)), "the plots' normal sizes")
+    finally:
+        page.close()
+
+
+def test_a_refusal_is_in_sight_wherever_the_page_is_scrolled_and_typed_text_is_not_dropped_silently(browser, server):
+    """Defect 9: the alert sat at the top of the results, out of sight once scrolled to the dE map, and
+    pushed the views down ~70 px; text typed into the exposure or distance box was reverted without a word."""
+    page = Page(browser, server)
+    try:
+        page.page.set_viewport_size({"width": 1366, "height": 768})
+        de_map = page.page.locator(".camsim-de-plot").first
+        de_map.scroll_into_view_if_needed()
+        before = _until(lambda: de_map.bounding_box(), "the dE map's place")
+
+        def alert_in_sight(words):
+            def check():
+                box = page.page.locator(".camsim-alert").first.bounding_box() if page.alert_text() else None
+                return (box and words in page.alert_text() and box["y"] >= 0 and box["y"] + box["height"] <= 768
+                        and box["height"] > 10 and box)
+            return _until(check, f"an alert in sight saying {words!r}")
+
+        page.type_number("w-noise", 80)  # over the limit: refused by the server with a reason
+        alert_in_sight("oise")
+        after = de_map.bounding_box()
+        assert abs(after["y"] - before["y"]) <= 2, (before, after)  # the views did not move
+        page.shot("refusal-in-sight")
+
+        kept = page.params()["exposure"]
+        box = page.page.locator(".w-exposure input").first
+        box.click()
+        box.press("End")
+        box.type("abc")
+        alert_in_sight("Exposure (s)")
+        text = page.alert_text()
+        assert re.search(r"“0\.1000[abc]” is not a number", text), text  # the box's text with a letter typed
+        assert str(kept) in text, (kept, text)
+        assert page.params()["exposure"] == kept
+        box.press("Enter")
+        distance = page.page.locator(".w-distance input").first
+        distance.click()
+        distance.press("End")
+        distance.type("x")
+        alert_in_sight("Distance (m)")
+        assert page.errors() == []
+        assert "Traceback" not in server_log(server)
     finally:
         page.close()
