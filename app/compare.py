@@ -41,7 +41,7 @@ from camsim_core.review.design import (DESIGN_DEFAULTS, MAX_PINNED, QUALITY_LABE
                                        check_pinned, differing_parameters, evaluate_design, quality_measures,
                                        result_from_pipeline)
 from camsim_core.review.difference import ab_difference
-from camsim_core.review.report import DESIGN_COLOURS, quality_cell, report_html, shared_scale
+from camsim_core.review.report import DESIGN_COLOURS, design_colours, quality_cell, report_html, shared_scale
 from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
 
 from .safe_text import PlainText, html_text, md_text
@@ -61,9 +61,16 @@ IMAGE_OPTS = dict(frame_width=250, data_aspect=1, xaxis=None, yaxis=None, toolba
 _WIN_COLOURS = np.array([[31, 119, 180], [255, 127, 14], [200, 200, 200]]) / 255.0
 
 
+#: A row that goes on below when it does not fit the window's width (the rest of a row of fixed-size views).
+_WRAP = {"flex-wrap": "wrap"}
+
+
 def _bounds(shape):
+    """An image's extent in scene widths, (0, 0, 1, h / w): every design images the whole scene, at its own
+    pixel count, so the shared zoom shows the same part of the scene in each (in pixels, a design of smaller
+    pixels showed only the corner the live design's zoom covered)."""
     h, w = shape[:2]
-    return (0, 0, w, h)
+    return (0, 0, 1.0, h / w)
 
 
 def _design_only(params):
@@ -138,10 +145,17 @@ class HistogramPlot:
         self.legend = Legend(items=items, location="top_right")
         self.figure.add_layout(self.legend)
 
-    def update(self, items, metric):
-        """Show ``items``, a list of (name, dE map), for ``metric`` ("CIELAB" or "S-CIELAB")."""
+    def update(self, items, metric, colours=None):
+        """Show ``items``, a list of (name, dE map), for ``metric`` ("CIELAB" or "S-CIELAB"), each design in
+        its colour of ``colours`` (name -> colour; by position when not given)."""
         self.figure.title.text = f"Overlaid {metric} dE histograms (mean solid, median dashed)"
+        colours = colours or design_colours([name for name, _ in items])
         for i in range(SLOTS):
+            if i < len(items):
+                colour = colours[items[i][0]]
+                if self.lines[i].glyph.line_color != colour:
+                    self.lines[i].glyph.line_color = colour
+                    self.means[i].line_color = self.medians[i].line_color = colour
             v = None
             if i < len(items):
                 v = np.asarray(items[i][1], float)
@@ -205,7 +219,11 @@ class CompareView:
         self.table = pn.pane.HTML("", css_classes=["camsim-compare-table"], sizing_mode="stretch_width")
         self.status = PlainText("", css_classes=["camsim-compare-status"], sizing_mode="stretch_width",
                                 styles={"font-size": "10px", "white-space": "pre-wrap", "word-break": "break-all"},
-                                stylesheets=["pre { white-space: pre-wrap; word-break: break-all; }"])
+                                stylesheets=["pre { white-space: pre-wrap; word-break: break-all; }"],
+                                visible=False)
+        self.show_status = w.Checkbox(name="Show the comparison's status (JSON, for scripts)", value=False,
+                                      css_classes=["w-compare-status"])
+        self.show_status.param.watch(lambda e: setattr(self.status, "visible", e.new), "value")
         self.a_select = w.Select(name="A", options=[], css_classes=["w-ab-a"], width=180)
         self.b_select = w.Select(name="B", options=[], css_classes=["w-ab-b"], width=180)
         self.a_select.param.watch(lambda e: self.update_ab(), "value")
@@ -233,9 +251,10 @@ class CompareView:
             return
         self._built = True
         self._build_plots()
-        self.views[:] = [pn.Row(*self.slots), pn.Row(self.hist_pane, self.table),
+        # rows that wrap: five designs, or a histogram beside a wide table, do not fit a 1366 px window's width
+        self.views[:] = [pn.Row(*self.slots, styles=_WRAP), pn.Row(self.hist_pane, self.table, styles=_WRAP),
                          pn.pane.Markdown("### A/B difference"), pn.Row(self.a_select, self.b_select), self.ab_text,
-                         pn.Row(*self.ab_panes)]
+                         pn.Row(*self.ab_panes, styles=_WRAP)]
         self.sweep_area[:] = [self.sweep_pane]
 
     def _build_plots(self):
@@ -490,7 +509,7 @@ class CompareView:
                 self._shown[i] = None
             self.slots[i].visible = i < len(results)
         self.histogram.update([(r.name, r.error_map(metric) if r.error_map(metric) is not None else r.delta_e)
-                               for r in results], metric)
+                               for r in results], metric, self.colours(results))
         names = [r.name for r in results]
         a, b = self.a_select.value, self.b_select.value
         self.a_select.options = names
@@ -651,6 +670,12 @@ class CompareView:
         self._tap.add_subscriber(self.on_tap)
         self.sweep_pane.object = plot
 
+    def colours(self, results=None):
+        """Each design's colour (name -> colour) in every plot of the tab and in the report: the designs shown,
+        in order, then the sweep's others (as :func:`camsim_core.review.report.design_colours` gives them)."""
+        results = results if results is not None else self.designs()
+        return design_colours([r.name for r in results], more=[p.name for p in self.points])
+
     def _sweep_plot(self, data):
         points, parameter, metric = data
         label = SWEEP_PARAMETERS.get(parameter, parameter)
@@ -658,9 +683,12 @@ class CompareView:
         names = {}
         for p in points:
             names.setdefault(p.design, p.name)
+        colours = self.colours() if points else {}
         for i, name in sorted(names.items()):
             pts = sorted((p.value, p.measure(metric)) for p in points if p.design == i and p.measures)
-            colour = DESIGN_COLOURS[i % len(DESIGN_COLOURS)]
+            if not pts:
+                continue  # a design left out of the sweep (the message says why): no empty legend entry
+            colour = colours.get(name, DESIGN_COLOURS[i % len(DESIGN_COLOURS)])
             layers.append(hv.Curve(pts, label, f"mean {metric} dE", label=name).opts(color=colour))
             layers.append(hv.Scatter(pts, label, f"mean {metric} dE", label=name).opts(color=colour, size=8,
                                                                                         tools=["tap"]))
@@ -733,15 +761,14 @@ class CompareView:
     # -- layout --------------------------------------------------------------------
     def panel(self):
         pin_row = pn.Row(self.name_input, self.pin_button, self.pinned_select, self.rename_input, self.rename_button,
-                         self.unpin_button)
+                         self.unpin_button, styles=_WRAP)
         return pn.Column(
             pn.pane.Markdown(f"Pin up to {MAX_PINNED} designs; they are compared with the live design on the same "
                              "scene. Images share zoom and pan; every dE map uses one colour scale."),
             pin_row, pn.Row(self.progress, self.download), self.message, self.views,
             pn.pane.Markdown("### Sweep"),
-            pn.Row(self.sweep_parameter, self.sweep_values, self.sweep_button, self.sweep_progress),
-            self.sweep_message, self.sweep_area,
-            pn.pane.Markdown("**Comparison status** (for tests and scripts):"), self.status,
+            pn.Row(self.sweep_parameter, self.sweep_values, self.sweep_button, self.sweep_progress, styles=_WRAP),
+            self.sweep_message, self.sweep_area, self.show_status, self.status,
             name="Compare designs",
         )
 

@@ -247,3 +247,99 @@ def test_a_refusal_is_in_sight_wherever_the_page_is_scrolled_and_typed_text_is_n
         assert "Traceback" not in server_log(server)
     finally:
         page.close()
+
+
+# each figure's legend: label -> line colour (Bokeh's models in the page), by figure title
+_LEGEND_COLOURS = """() => {
+  const out = {};
+  for (const m of Bokeh.documents[0]._all_models.values()) {
+    if (!(m.constructor && m.constructor.__name__ === 'Figure' && m.title && m.title.text)) continue;
+    const entry = out[m.title.text] = {};
+    for (const legend of m.center.filter(c => c.constructor.__name__ === 'Legend')) {
+      for (const item of legend.items) {
+        const label = item.label && (item.label.value || item.label.field);
+        const glyph = item.renderers[0] && item.renderers[0].glyph;
+        if (label && glyph && glyph.line_color && item.visible !== false)
+          entry[label.split(':')[0]] = String(glyph.line_color.value || glyph.line_color);
+      }
+    }
+  }
+  return out;
+}"""
+
+
+from test_app_compare_browser import _FIGURES  # noqa: E402  (the compare tab's figures, as the browser has them)
+
+
+def test_compare_tab_with_three_cameras_fits_1366_lines_up_images_and_sweeps_only_what_applies(browser, server):
+    """Defect 6: designs of other pixel sizes showed the corner the live design's zoom covered; at 1366 px the
+    tab scrolled sideways (the third design and its Unpin cut off); a raw JSON block was always shown.
+    Defect 7: a noise-sigma sweep drew imx174 (whose noise is its sensor's own) as a flat line with no note,
+    and a design's colour differed between the sweep plot and the histogram."""
+    from test_app_compare_browser import compare_status, open_tab, pin, wait_compare
+
+    page = Page(browser, server)
+    try:
+        page.page.set_viewport_size({"width": 1366, "height": 768})
+        open_tab(page)
+        pin(page, "dcs")
+        wait_compare(page, lambda s: s["pinned"] == ["dcs"])
+        page.select("w-camera", "imx174")
+        page.wait_for(lambda s: s["params"]["camera"] == "imx174" and not s["computing"])
+        pin(page, "imx")
+        page.select("w-camera", "human-cones")
+        page.wait_for(lambda s: s["params"]["camera"] == "human-cones" and not s["computing"])
+        s = wait_compare(page, lambda s: [d["name"] for d in s["designs"]] == ["live", "dcs", "imx"] and not s["busy"])
+        shapes = {d["name"]: d["shape"] for d in s["designs"]}
+        assert shapes["imx"] != shapes["dcs"], shapes  # designs of other pixel counts
+
+        # the raw status is for scripts: hidden unless asked for
+        assert not page.page.locator(".camsim-compare-status").first.is_visible()
+
+        def fits():
+            width = page.page.evaluate("document.documentElement.scrollWidth")
+            unpin = page.page.locator(".w-unpin button").first.bounding_box()
+            slots = [b for b in (page.page.locator(".camsim-compare-slot").nth(i).bounding_box() for i in range(3)) if b]
+            return (width <= 1366 and unpin and unpin["x"] + unpin["width"] <= 1366 and len(slots) == 3
+                    and all(b["x"] + b["width"] <= 1366 for b in slots))
+
+        _until(fits, "the tab within 1366 px, every design and the Unpin button in sight")
+
+        def whole_images():  # shared zoom over images in scene widths: each design's whole image in view
+            figures = page.page.evaluate(_FIGURES)
+            rendered = {k.split(":")[0]: v for k, v in figures.items() if k.endswith(": rendered")}
+            if set(rendered) != {"live", "dcs", "imx"}:
+                return False
+            for name, fig in rendered.items():
+                h, w = shapes[name]
+                (x0, x1), (y0, y1) = fig["xr"], fig["yr"]
+                if not (x0 <= 0.02 and x1 >= 0.98 and y0 <= 0.02 * h / w and y1 >= 0.98 * h / w):
+                    return False
+            return True
+
+        _until(whole_images, "every design's whole image in its view")
+        page.shot("compare-1366-three-cameras")
+
+        box = page.page.locator(".w-sweep-values input").first
+        box.fill("0, 4")
+        box.press("Enter")
+        page.page.locator(".w-sweep-run button").first.click()
+        s = wait_compare(page, lambda s: s["sweep"] and len(s["sweep"]["points"]) == 4)
+        imx = [p for p in s["sweep"]["points"] if p["design"] == "imx"]
+        assert len(imx) == 2 and all(p["measures"] is None and "electron-level" in p["error"] for p in imx), imx
+        _until(lambda: "not swept" in page.text(".camsim-sweep-message") and "imx174" in page.text(".camsim-sweep-message"),
+               "the sweep's note that imx174 is not swept")
+
+        def colours():
+            legends = page.page.evaluate(_LEGEND_COLOURS)
+            hist = next((v for k, v in legends.items() if k.startswith("Overlaid")), {})
+            sweep = next((v for k, v in legends.items() if k.startswith("Mean")), {})
+            return hist.get("dcs") and sweep.get("dcs") and (hist, sweep)
+
+        hist, sweep = _until(colours, "the histogram's and the sweep plot's legends")
+        assert sweep["dcs"] == hist["dcs"], (hist, sweep)
+        assert "imx" not in sweep  # no flat line drawn for it
+        page.shot("compare-sweep-three-cameras")
+        assert page.errors() == []
+    finally:
+        page.close()

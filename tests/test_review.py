@@ -1,6 +1,8 @@
 """Design review engine (camsim_core.review) and ``camsim report`` without a browser."""
 
+import dataclasses
 import json
+import re
 
 import numpy as np
 import pytest
@@ -272,3 +274,42 @@ def test_a_design_carries_optics_and_a_light_level():
         check_params({"optics": "pinhole"})
     with pytest.raises(ParameterError, match="light"):
         check_params({"light": 0.0})
+
+
+def test_a_noise_sweep_leaves_out_an_electron_level_camera_saying_why():
+    """Issue 38 defect 7: imx174 draws its own shot and read noise; a noise-sigma sweep drew it as a flat line."""
+    designs = [("dcs", DCS), ("imx", {"camera": "imx174"})]
+    points = list(iter_sweep(designs, "noise_sigma", [0.0, 4.0], metrics=("cielab",)))
+    imx = [p for p in points if p.name == "imx"]
+    assert len(imx) == 2 and all(p.measures is None for p in imx)
+    assert all("imx174" in p.error and "electron-level" in p.error and "not swept" in p.error for p in imx)
+    dcs = sorted((p.value, p.measure()) for p in points if p.name == "dcs")
+    assert [v for v, _ in dcs] == [0.0, 4.0] and dcs[0][1] < dcs[1][1]
+
+
+def _png_colours(uri):
+    import base64
+    import io
+
+    from PIL import Image
+
+    pixels = np.asarray(Image.open(io.BytesIO(base64.b64decode(uri.split(",", 1)[1]))).convert("RGB")).reshape(-1, 3)
+    return {"#%02x%02x%02x" % tuple(c) for c in np.unique(pixels, axis=0)}
+
+
+def test_a_design_has_one_colour_in_the_reports_histogram_and_sweep_plot(dcs, cones):
+    """Issue 38 defect 7: with the live design first in the report, a pinned design's sweep curve took the
+    colour the histogram gives the live design."""
+    from camsim_core.review.report import DESIGN_COLOURS
+    from camsim_core.review.sweep import SweepPoint
+
+    live = dataclasses.replace(cones, name="live")
+    # the sweep ran over the pinned design only: its index there is 0, its place in the report 1
+    points = [SweepPoint(0, "dcs", v, dict(DCS), measures=dcs.measures) for v in (0.0, 2.0)]
+    text = report_html([live, dcs], sweep={"parameter": "noise_sigma", "values": [0.0, 2.0]}, points=points)
+    uris = {alt: src for src, alt in re.findall(r'<img class="plot" src="([^"]+)" alt="([^"]+)"', text)}
+    hist, sweep = _png_colours(uris["CIELAB dE histograms"]), _png_colours(uris["sweep plot"])
+    live_colour, dcs_colour = DESIGN_COLOURS[0], DESIGN_COLOURS[1]
+    assert {live_colour, dcs_colour} <= hist
+    assert dcs_colour in sweep and live_colour not in sweep
+    assert f"border-left: 6px solid {dcs_colour}\">dcs" in text

@@ -31,7 +31,7 @@ from ..errors import ParameterError
 from .design import DESIGN_PARAMETERS, QUALITY_DIGITS, QUALITY_LABELS, differing_parameters
 from .sweep import SWEEP_PARAMETERS
 
-__all__ = ["report_html", "write_report", "shared_scale", "png_data_uri", "colour_map", "quality_cell"]
+__all__ = ["report_html", "write_report", "shared_scale", "png_data_uri", "colour_map", "quality_cell", "design_colours"]
 
 #: Colours of designs in plots (matplotlib's tab10, first five).
 DESIGN_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd")
@@ -69,17 +69,44 @@ def _figure_uri(fig):
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-def _histogram_uri(results, metric, bins=60, top=30.0):
+def design_colours(names, more=()):
+    """Each design's colour, by name: one colour per design in every plot of a comparison.
+
+    Parameters
+    ----------
+    names : sequence of str
+        The designs compared, in order; the i-th distinct name gets ``DESIGN_COLOURS[i]`` (cycling).
+    more : sequence of str, optional
+        Further names (e.g. a sweep's designs not among ``names``), given the next colours.
+
+    Returns
+    -------
+    dict
+        name -> hex colour.
+
+    Examples
+    --------
+    >>> design_colours(["live", "DCS-200"], more=["DCS-200", "cones"])
+    {'live': '#1f77b4', 'DCS-200': '#ff7f0e', 'cones': '#2ca02c'}
+    """
+    out = {}
+    for name in [*names, *more]:
+        if name not in out:
+            out[name] = DESIGN_COLOURS[len(out) % len(DESIGN_COLOURS)]
+    return out
+
+
+def _histogram_uri(results, metric, colours, bins=60, top=30.0):
     """Overlaid dE histograms (one step curve per design, mean solid, median dashed)."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(6.4, 3.2))
     ax = fig.add_subplot()
     edges = np.linspace(0, top, bins + 1)
-    for i, r in enumerate(results):
+    for r in results:
         v = r.error_map(metric)
         v = v[np.isfinite(v)]
-        c = DESIGN_COLOURS[i % len(DESIGN_COLOURS)]
+        c = colours[r.name]
         counts, _ = np.histogram(np.clip(v, 0, top), edges)
         ax.stairs(counts / v.size, edges, color=c, label=f"{r.name}: mean {r.measure(metric):.2f}, "
                                                            f"median {r.measure(metric, 'median'):.2f}")
@@ -91,8 +118,8 @@ def _histogram_uri(results, metric, bins=60, top=30.0):
     return _figure_uri(fig)
 
 
-def _sweep_uri(points, parameter, metric):
-    """Mean error against the swept parameter, one curve per design."""
+def _sweep_uri(points, parameter, metric, colours):
+    """Mean error against the swept parameter, one curve per design (in the design's colour of the report)."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(6.4, 3.2))
@@ -101,7 +128,7 @@ def _sweep_uri(points, parameter, metric):
         pts = sorted((p.value, p.measure(metric)) for p in points if p.design == i and p.measures)
         if pts:
             x, y = zip(*pts)
-            ax.plot(x, y, "o-", color=DESIGN_COLOURS[i % len(DESIGN_COLOURS)], label=name)
+            ax.plot(x, y, "o-", color=colours[name], label=name)
     ax.set_xlabel(SWEEP_PARAMETERS.get(parameter, parameter))
     ax.set_ylabel(f"mean {metric} dE")
     ax.legend(fontsize=8)
@@ -160,6 +187,7 @@ def report_html(results, *, sweep=None, points=None, ab=None, title="camsim desi
     if not results:
         raise ParameterError("designs", "a report needs at least one design")
     e = html.escape
+    colours = design_colours([r.name for r in results], more=[name for _, name in _designs_of(points or [])])
     maps = [r.delta_e for r in results] + [r.scielab for r in results if r.scielab is not None]
     top = shared_scale(maps)
     scenes = sorted({r.scene_name or str(r.params.get("scene")) for r in results})
@@ -197,7 +225,7 @@ def report_html(results, *, sweep=None, points=None, ab=None, title="camsim desi
             imgs.append((png_data_uri(colour_map(r.scielab, top)), "S-CIELAB dE map"))
         cells = "".join(f'<figure><img src="{u}" alt="{e(r.name)}: {c}" title="{e(r.name)}: {c}">'
                         f"<figcaption>{c}</figcaption></figure>" for u, c in imgs)
-        colour = DESIGN_COLOURS[i % len(DESIGN_COLOURS)]
+        colour = colours[r.name]
         figures.append(f'<section class="design"><h3 style="border-left: 6px solid {colour}">{e(r.name)} '
                        f"<small>mean dE {_fmt(r.measure('CIELAB'))}, median {_fmt(r.measure('CIELAB', 'median'))}"
                        f"</small></h3><div class=row>{cells}</div></section>")
@@ -211,7 +239,7 @@ def report_html(results, *, sweep=None, points=None, ab=None, title="camsim desi
         f"no mosaic, no noise). dE is CIELAB dE*ab (CIE 1976) per pixel.</p>{measures_table}",
         f"<h2>Parameters that differ</h2>{differ_table}",
         f"<h2>Images</h2><div class=row>{ideal}{colourbar}</div>" + "".join(figures),
-        f'<h2>dE histograms</h2><img class="plot" src="{_histogram_uri(results, metric)}" alt="{metric} dE histograms">',
+        f'<h2>dE histograms</h2><img class="plot" src="{_histogram_uri(results, metric, colours)}" alt="{metric} dE histograms">',
     ]
     data = {"camsim_version": _version(), "scenes": scenes, "metric": metric, "scale_top": top,
             "designs": [{"name": r.name, "params": r.params, "measures": r.measures} for r in results]}
@@ -239,7 +267,7 @@ def report_html(results, *, sweep=None, points=None, ab=None, title="camsim desi
             for p in sorted(points, key=lambda p: (p.design, p.value)))
         sections.append(
             f"<h2>Sweep of {e(SWEEP_PARAMETERS.get(parameter, parameter))}</h2>"
-            f'<img class="plot" src="{_sweep_uri(points, parameter, metric)}" alt="sweep plot">'
+            f'<img class="plot" src="{_sweep_uri(points, parameter, metric, colours)}" alt="sweep plot">'
             f'<table class="sweep" id="sweep"><thead><tr><th>design</th><th>{e(parameter)}</th><th>mean dE</th>'
             f"<th>median dE</th><th>mean S-CIELAB dE</th></tr></thead><tbody>{prow}</tbody></table>")
         data["sweep"] = {"parameter": parameter, "values": list(sweep["values"]),

@@ -27,9 +27,10 @@ from .._parallel import background
 
 from ..cache import Pipeline
 from ..errors import CamsimError, ParameterError
+from ..camera.physical import PHYSICAL_NAMES
 from .design import DESIGN_DEFAULTS, DESIGN_PARAMETERS, GAUSSIAN_DEFAULTS, check_params, evaluate_design, parse_numbers
 
-__all__ = ["SWEEP_PARAMETERS", "MAX_SWEEP_VALUES", "MAX_SWEEP_DESIGNS", "SweepPoint", "check_sweep", "design_at",
+__all__ = ["not_applicable", "SWEEP_PARAMETERS", "MAX_SWEEP_VALUES", "MAX_SWEEP_DESIGNS", "SweepPoint", "check_sweep", "design_at",
            "iter_sweep", "run_sweep"]
 
 #: Parameters a sweep can vary, with a label (units) for plots. ``gaussian_center_K`` is the
@@ -107,6 +108,40 @@ def design_at(params, parameter, value, where="design"):
     return check_params(p, where)
 
 
+def not_applicable(params, parameter):
+    """Why sweeping ``parameter`` cannot change the design ``params``; None when it can.
+
+    An electron-level camera (``camsim_core.camera.physical``) draws its own
+    shot and read noise from its sensor's parameters: the chapter's added
+    noise sigma is not used, and a sweep of it would draw a flat line that
+    looks like a finding. Such a design is left out of the sweep, with this
+    reason as each of its points' ``error``.
+
+    Parameters
+    ----------
+    params : dict
+        A design's parameters (``DESIGN_PARAMETERS`` names).
+    parameter : str
+        One of :data:`SWEEP_PARAMETERS`.
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> print(not_applicable({"camera": "imx174"}, "noise_sigma"))
+    noise sigma does not apply to imx174, an electron-level camera (its noise is its sensor's own): not swept
+    >>> not_applicable({"camera": "kodak-dcs200"}, "noise_sigma") is None
+    True
+    """
+    camera = dict(DESIGN_DEFAULTS, **params).get("camera")
+    if parameter == "noise_sigma" and camera in PHYSICAL_NAMES:
+        return (f"noise sigma does not apply to {camera}, an electron-level camera (its noise is its sensor's own): "
+                "not swept")
+    return None
+
+
 def _check(designs, parameter, values):
     sweep = check_sweep({"parameter": parameter, "values": list(values)})
     designs = list(designs)
@@ -153,6 +188,12 @@ def _points(designs, parameter, values, scene, max_workers, cancel, metrics):
 
     def work(index, name, params):
         pipeline = Pipeline()
+        reason = not_applicable(params, parameter)
+        if reason is not None:  # every point refused with the reason, nothing computed
+            for v in values:
+                out.put(SweepPoint(index, name, v, dict(params), error=f"{name}: {reason}"))
+            out.put(done)
+            return
         try:
             for v in values:
                 if cancel.is_set():
