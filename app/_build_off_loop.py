@@ -8,7 +8,7 @@ load test, and the same for each spare page). Here the build runs in one
 builder thread, one page at a time, while the loop goes on serving every
 other page; the session itself is then made on the loop, as Bokeh makes it.
 The build is Python, so it shares the interpreter: at the server's GIL
-switch interval (``camsim_core.cli.serve.GIL_SWITCH_S``) the loop gets it
+switch interval (``camsim_explorer.serve.GIL_SWITCH_S``) the loop gets it
 back within a fraction of a millisecond whenever it has work.
 
 Private Bokeh and Panel internals, in this one module:
@@ -47,7 +47,7 @@ BOKEH_SOURCE_SHA256 = "047e758c152be0f6"
 
 _log = logging.getLogger("camsim.serve")
 _installed = []
-#: True while the current task builds a spare page (``app._spare_session``): built at background priority.
+#: True while the current task builds a spare page (``camsim_explorer._spare_session``): built at background priority.
 SPECULATIVE = contextvars.ContextVar("camsim_speculative_build", default=False)
 
 

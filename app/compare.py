@@ -174,7 +174,7 @@ class HistogramPlot:
 
 
 class CompareView:
-    """Everything on the Compare designs tab, following one :class:`~app.state.ExplorerState`."""
+    """Everything on the Compare designs tab, following one :class:`~camsim_explorer.state.ExplorerState`."""
 
     def __init__(self, state, store=None):
         self.state = state

@@ -2,11 +2,11 @@
 
 Serve it with ``camsim serve`` (``pn.serve(create_app, ...)``): Panel calls
 ``create_app`` once per browser session, so each session has its own
-:class:`~app.state.ExplorerState` (parameters and cached pipeline), while
+:class:`~camsim_explorer.state.ExplorerState` (parameters and cached pipeline), while
 scenes, cameras and monitors are read once per process and shared read-only.
 
 In the server, each session computes in a background thread of its own
-(:class:`~app.state.Runner`) and shows the outcome on its document's next
+(:class:`~camsim_explorer.state.Runner`) and shows the outcome on its document's next
 tick: the Tornado event loop, shared by all sessions, never waits for the
 engine. The page is a ``FastListTemplate``: controls in the sidebar, results
 in tabs (``TABS``: one line per tab).

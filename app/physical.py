@@ -1,6 +1,6 @@
 """The explorer's "Optics & sensor" view: the current camera's lens and sensor in their units.
 
-A small view over the session's :class:`~app.state.ExplorerState` (it reads
+A small view over the session's :class:`~camsim_explorer.state.ExplorerState` (it reads
 ``state.result.camera``, the camera of the last good result, and follows its
 f-number and exposure): a table of the optics and EMVA 1288 sensor
 parameters in um, e-, e-/s and %, the diffraction-limited MTF at 450, 550

@@ -7,7 +7,7 @@ as markup (``<img src=x onerror=...>``) in the page of whoever opens the link
 or the file. Every such string goes through one of these before it reaches a
 pane:
 
-* :func:`html_text` for HTML (the compare table, the :class:`~app.views.Text` labels);
+* :func:`html_text` for HTML (the compare table, the :class:`~camsim_explorer.views.Text` labels);
 * :func:`md_text` for Markdown (messages, the alert, tables): HTML-escaped and
   every Markdown punctuation mark backslash-escaped, so that neither tags,
   ``[links](javascript:...)``, emphasis, code spans, tables, emoji codes

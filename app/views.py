@@ -1,4 +1,4 @@
-"""Views of the explorer: Bokeh figures that follow an :class:`~app.state.ExplorerState`.
+"""Views of the explorer: Bokeh figures that follow an :class:`~camsim_explorer.state.ExplorerState`.
 
 Only display logic lives here (turning engine arrays into pictures); every
 number shown comes from the engine through the state's cached pipeline.
@@ -437,7 +437,7 @@ class Text:
     graph on the server. The model carries the text HTML-escaped, as Panel's
     own panes send it (the browser decodes it); scripts and TeX are off.
     The text is HTML: a part that users wrote (a name, a value) goes through
-    :func:`~app.safe_text.html_text`. Use it where a pane would go (``__panel__``).
+    :func:`~camsim_explorer.safe_text.html_text`. Use it where a pane would go (``__panel__``).
     """
 
     def __init__(self, text, css, margin=(2, 5), styles=None, stylesheets=()):

@@ -53,7 +53,7 @@ def ndimage_scielab(xyz1, xyz2, spd, white):
     opp = np.einsum("ij,...hwj->...ihw", s_cielab.XYZ_TO_OPPONENT, x)
     f = ndimage_filter_channels(opp, spd)
     back = np.einsum("ij,...jhw->...hwi", s_cielab.OPPONENT_TO_XYZ, f)
-    lab = cielab._xyz_to_lab(back, white)
+    lab = cielab.xyz_to_lab(back, white, checked=True)
     return cielab.delta_e_lab(lab[0], lab[1])
 
 

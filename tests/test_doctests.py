@@ -6,7 +6,8 @@ import importlib
 import pytest
 
 MODULES = ["camsim_core.io.guard", "camsim_core.io.matv5", "camsim_core.io.hdf5", "camsim_core.io.isolated",
-           "camsim_core.review.sweep", "camsim_core.review.report",
+           "camsim_core.review.sweep", "camsim_core.review.report", "camsim_core.datasets",
+           "camsim_core.metrics.cielab", "camsim_core.metrics.s_cielab",
            "camsim_core._parallel", "camsim_core.scene.matlab"]
 
 

@@ -135,7 +135,8 @@ def run(args):
         from ..io.dng import write_dng
 
         image = _run_with_progress(image_from_scene(scene), steps, out, disable=True if args.no_progress else None,
-                                   write=lambda im, path: write_dng(im, path, model=camera.name or "camera"))
+                                   write=lambda im, path: write_dng(im, path, model=camera.name or "camera",
+                                                                    analog_gain=camera.analog_gain))
         print(f"wrote {out} ({image.data.shape[0]} x {image.data.shape[1]} CFA DNG, {image.bits}-bit)")
         return 0
     image = _run_with_progress(image_from_scene(scene), steps, out, disable=True if args.no_progress else None)
