@@ -5,7 +5,7 @@ command line names the command and hands its arguments here when it runs
 (:func:`camsim_core.cli.serve.main`), so the engine never imports Panel or
 the explorer. Every bound a session is held to (upload size, zip members,
 scene size, Gaussian sensors, tile size, text and JSON sizes, idle time) is
-a flag here and listed in the README.
+a flag here and listed in docs/serving.md (Limits).
 """
 
 from __future__ import annotations

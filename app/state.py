@@ -86,7 +86,7 @@ def demosaic_methods():
 
 @dataclass
 class ServerLimits:
-    """What one session may ask of the server (``camsim serve`` flags set them; the README lists them).
+    """What one session may ask of the server (``camsim serve`` flags set them; docs/serving.md lists them).
 
     Attributes
     ----------
