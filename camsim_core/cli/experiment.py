@@ -1,4 +1,4 @@
-"""``camsim experiment sensors|mosaic|pixel-size``: the chapter's section 5 experiments (Figure 1.14,
+"""``camsim experiment sensors|mosaic|pixel-size|table-1-16-study``: the chapter's section 5 experiments (Figure 1.14,
 Table 1.16) and its section 6 question (pixel size for a fixed sensor).
 
 Each configuration (scene x design x noise sigma x seed) is one task:
@@ -109,7 +109,39 @@ def register(subparsers):
                    help="the four sensor centres, nm; the 3-sensor design leaves out the second (default: 460,520,580,640; the chapter names only 520)")
     m.add_argument("--std", type=float, default=27.0, help="standard deviation of the Gaussian sensors, nm (default: 27)")
     m.add_argument("--demosaic", default="bayesian", help="demosaicing method (default: bayesian)")
+    # the choices the chapter leaves unstated (issue 41); defaults = camsim's readings
+    m.add_argument("--exposure-fill", type=float, default=0.9,
+                   help="share of the 0-255 range the brightest scene points reach (99.5th percentile of the brightest "
+                        "sensor), which sets how large a noise sigma is against the signal (default: 0.9)")
+    m.add_argument("--normalization", default="area", choices=("area", "white"),
+                   help="Gaussian curves with equal areas, or white-balanced gains (equal response to the illuminant) (default: area)")
+    m.add_argument("--prior-detail", type=float, default=None,
+                   help="Bayesian demosaic: variance of the achromatic detail prior relative to the largest principal "
+                        "variance (default: the method's, 0.1 for bayesian, 0 for bayesian-original)")
+    m.add_argument("--noise-model", default=None, choices=("known", "ignored", "fraction"),
+                   help="Bayesian demosaic's likelihood noise: the camera's sigma (known, bayesian's default), none "
+                        "(ignored), or a fixed fraction of the prior variance (fraction, bayesian-original's)")
+    m.add_argument("--rendering", default="illuminant", choices=("illuminant", "baseline"),
+                   help="rendering method (default: illuminant, the chapter's)")
+    m.add_argument("--surface-dimensions", type=int, default=None,
+                   help="illuminant rendering: surface linear model of 3 dimensions for both designs (default: as many as sensors)")
     m.set_defaults(func=run)
+
+    t = sub.add_parser("table-1-16-study", help="Table 1.16's unstated choices swept on Dask (resumable)",
+                       description="Sweep exposure, sensor centres and normalization, the demosaic's prior and noise model, the "
+                       "rendering's surface model and the S-CIELAB viewing; for each combination the six cells of Table 1.16, "
+                       "their error against the chapter's and whether the crossover appears. Results are appended to "
+                       "OUT/study.jsonl task by task and finished tasks are skipped on a rerun; the report (CSV, figure) is "
+                       "written from all results so far.")
+    t.add_argument("--scene", default="cacaphony290", help="scene (default: cacaphony290, the chapter's)")
+    t.add_argument("--fills", default=None, help="exposure fills, list or START:STOP:COUNT (default: 0.9,0.6,0.4,0.3,0.2,0.15,0.1,0.05)")
+    t.add_argument("--out", default="experiments/table-1-16-study", help="output folder (default: experiments/table-1-16-study)")
+    t.add_argument("--workers", type=int, default=2, help="local Dask cluster of N single-thread workers; 0 = this process (default: 2)")
+    t.add_argument("--scheduler", metavar="ADDRESS", help="use an existing Dask scheduler, e.g. tcp://127.0.0.1:8786")
+    t.add_argument("--limit", type=int, default=None, help="run at most N of the pending tasks")
+    t.add_argument("--no-progress", action="store_true", help="no progress bar")
+    t.add_argument("--no-report", action="store_true", help="only run the tasks")
+    t.set_defaults(func=run)
 
     x = sub.add_parser("pixel-size", help="section 6: S-CIELAB error against pixel pitch for a fixed 4.8 x 3.6 mm sensor, at several light levels",
                        description="A 4.8 x 3.6 mm sensor behind a 4 mm f/2.8 diffraction-limited lens, pixel pitch from 1 to 5.6 um "
@@ -170,11 +202,38 @@ def run_pixel_size(args):
     return 0
 
 
+def run_study(args):
+    from ..experiments import table_1_16_study as study
+
+    out = _out(args)
+    if args.workers < 0:
+        raise ParameterError("--workers", f"must be >= 0, got {args.workers}")
+    if args.limit is not None and args.limit < 1:
+        raise ParameterError("--limit", f"must be >= 1, got {args.limit}")
+    kw = {} if args.fills is None else {"fills": _values(args.fills, "--fills")}
+    task_list = study.tasks(scene=args.scene, **kw)
+    where = f"scheduler {args.scheduler}" if args.scheduler else (
+        f"local Dask cluster of {args.workers} worker(s)" if args.workers else "this process")
+    print(f"camsim experiment table-1-16-study: {len(task_list)} tasks ({len(task_list) * len(study.VIEWINGS)} combinations) on {where}")
+    info = study.run(task_list, out, workers=args.workers, scheduler=args.scheduler, limit=args.limit,
+                     progress=False if args.no_progress else None)
+    rows = study.load(out)
+    print(f"ran {info['ran']} task(s), skipped {info['skipped']} already done; wall time {info['seconds']:.1f} s; "
+          f"{len(rows)} combinations in {out / study.RESULTS_NAME}")
+    if rows and not args.no_report:
+        for p in study.write_report(rows, out):
+            print(f"wrote {p}")
+        print(study.summary_text(rows))
+    return 0
+
+
 def run(args):
     from ..experiments import mosaic, sensors
 
     if args.experiment == "pixel-size":
         return run_pixel_size(args)
+    if args.experiment == "table-1-16-study":
+        return run_study(args)
     sigmas = _values(args.sigmas, "--sigmas")
     _seeds(args)
     distance = _distance(args.distance)
@@ -200,7 +259,10 @@ def run(args):
     else:
         centers = _values(args.centers, "--centers")
         configs = mosaic.configurations(args.scenes, sigmas, args.seeds, centers=centers, std_nm=args.std,
-                                        distance=distance, monitor=args.monitor, demosaic=args.demosaic, viewing=viewing)
+                                        distance=distance, monitor=args.monitor, demosaic=args.demosaic, viewing=viewing,
+                                        exposure_fill=args.exposure_fill, normalization=args.normalization,
+                                        prior_detail=args.prior_detail, noise_model=args.noise_model,
+                                        rendering=args.rendering, surface_dimensions=args.surface_dimensions)
         module = mosaic
     from ..experiments.runner import choose_workers, run_tasks
 

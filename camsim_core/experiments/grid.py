@@ -185,18 +185,20 @@ def check_centers(centers, name="centers", count=4):
     return out
 
 
-def common_exposure(scene, cameras, distance=None):
+def common_exposure(scene, cameras, distance=None, *, target=0.9):
     """One exposure time (s) for every camera of an experiment on ``scene``.
 
     The smallest of :func:`~camsim_core.simulation.auto_exposure` over
-    ``cameras`` (its 99.5th percentile at 90 % of the 8-bit range): the
-    longest exposure at which none of them clips, leaving 25 digital units
-    of head-room for the noise. The same light then reaches every camera and
-    the ideal image.
+    ``cameras`` (its 99.5th percentile at ``target`` x the 8-bit range, by
+    default 90 %): the longest exposure at which none of them clips, leaving
+    25 digital units of head-room for the noise. The same light then reaches
+    every camera and the ideal image. A lower ``target`` is a darker exposure,
+    against which a noise sigma in digital units is larger.
     """
     from ..simulation import auto_exposure
 
-    return float(min(auto_exposure(scene, c if distance is None else c.replace(distance=distance)) for c in cameras))
+    return float(min(auto_exposure(scene, c if distance is None else c.replace(distance=distance), target=target)
+                     for c in cameras))
 
 
 def task_seed(*key):

@@ -28,6 +28,19 @@ given (scene, sigma, seed index). S-CIELAB's samples per degree follow the
 ``viewing`` (:mod:`camsim_core.metrics.viewing`; by default the chapter's,
 the camera's angular resolution; ``"camera/10"`` the original's example).
 
+Choices the chapter leaves unstated (issue 41), each a parameter with the
+previous behaviour as default: ``exposure_fill`` (the share of the 0-255
+range the brightest scene points reach, 0.9; it sets how large a noise sigma
+of 5 is against the signal), ``normalization`` of the Gaussian curves
+(``"area"``: each with the DCS-200's mean area; ``"white"``: per-channel
+gains that give every class the same response to the scene illuminant),
+the Bayesian demosaic's prior (``prior_detail``) and noise model
+(``noise_model``: ``"known"`` sigma, ``"ignored"``, or the original mode's
+``"fraction"``), the S-CIELAB ``viewing`` and the ``rendering``
+(``"illuminant"`` or ``"baseline"``) with its surface model's
+``surface_dimensions`` (the number of sensors, or 3).
+:mod:`camsim_core.experiments.table_1_16_study` sweeps them.
+
 Programmatic use::
 
     from camsim_core.experiments import mosaic
@@ -41,6 +54,8 @@ import time
 from dataclasses import asdict, dataclass
 from functools import lru_cache
 from pathlib import Path
+
+import numpy as np
 
 from .grid import (
     DEFAULT_DISTANCE,
@@ -62,6 +77,12 @@ from ..metrics.viewing import DEFAULT_VIEWING
 __all__ = [
     "camera_rate",
     "MosaicConfig",
+    "NORMALIZATIONS",
+    "NOISE_MODELS",
+    "RENDERINGS",
+    "DEMOSAIC_METHODS",
+    "check_options",
+    "rendered_xyz",
     "DESIGNS",
     "SIGMAS",
     "CENTERS",
@@ -84,11 +105,22 @@ SIGMAS = (0.0, 2.0, 5.0)
 CENTERS = (460.0, 520.0, 580.0, 640.0)
 #: Standard deviation of the Gaussian sensitivities, nm.
 STD_NM = 27.0
+#: Default share of the 8-bit range reached by the 99.5th percentile of the brightest sensor (grid.common_exposure).
+EXPOSURE_FILL = 0.9
+#: How the Gaussian curves are scaled against each other: equal area (the DCS-200's mean) or white-balanced gains.
+NORMALIZATIONS = ("area", "white")
+#: The Bayesian demosaic's likelihood noise: the camera's sigma, none, or the original mode's fixed fraction.
+NOISE_MODELS = ("known", "ignored", "fraction")
+#: Rendering methods of chapter section 4.2.
+RENDERINGS = ("illuminant", "baseline")
+#: Demosaicing methods the experiment accepts (any tile).
+DEMOSAIC_METHODS = ("bayesian", "bayesian-original", "bilinear", "freeman")
 #: Table 1.16 of the chapter: mean S-CIELAB error at noise sigma 0, 2, 5.
 CHAPTER_TABLE = {3: {0.0: 2.37, 2.0: 2.67, 5.0: 4.04}, 4: {0.0: 1.09, 2.0: 1.99, 5.0: 4.16}}
 
 _RECORD_COLUMNS = ("scene", "sensors", "sigma", "seed", "noise_seed", "exposure", "distance", "monitor", "centers",
-                   "std_nm", "demosaic", "viewing", "samples_per_degree", "height", "width", "error", "seconds")
+                   "std_nm", "demosaic", "viewing", "samples_per_degree", "exposure_fill", "normalization", "prior_detail",
+                   "noise_model", "rendering", "surface_dimensions", "height", "width", "error", "seconds")
 
 
 @dataclass(frozen=True)
@@ -106,6 +138,12 @@ class MosaicConfig:
     std_nm: float = STD_NM
     demosaic: str = "bayesian"
     viewing: str = DEFAULT_VIEWING
+    exposure_fill: float = EXPOSURE_FILL
+    normalization: str = "area"
+    prior_detail: float | None = None
+    noise_model: str | None = None
+    rendering: str = "illuminant"
+    surface_dimensions: int | None = None
 
     @property
     def noise_seed(self):
@@ -113,10 +151,36 @@ class MosaicConfig:
         return task_seed("mosaic", str(self.scene), float(self.sigma), int(self.seed))
 
 
-def camera(n_sensors, sigma=0.0, seed=0, *, centers=CENTERS, std_nm=STD_NM):
-    """The 3-sensor Bayer or 4-sensor grid Gaussian camera with the DCS-200 geometry, 8 bits."""
+def camera(n_sensors, sigma=0.0, seed=0, *, centers=CENTERS, std_nm=STD_NM, normalization="area", illuminant=None):
+    """The 3-sensor Bayer or 4-sensor grid Gaussian camera with the DCS-200 geometry, 8 bits.
+
+    Parameters
+    ----------
+    n_sensors : {3, 4}
+    sigma : float
+        Gaussian noise standard deviation, digital units of the 0-255 range.
+    seed : int
+        Seed of the noise.
+    centers : sequence of 4 floats
+        Peak wavelengths (nm) of classes 1-4; the 3-sensor design leaves out class 2.
+    std_nm : float
+        Standard deviation of the Gaussian curves, nm.
+    normalization : {"area", "white"}
+        ``"area"``: every curve has the DCS-200's mean area (equal-width
+        Gaussians then differ only where 380-780 nm cuts their tails).
+        ``"white"``: each curve is then multiplied by a gain that gives it
+        the same response to ``illuminant`` (white balance in the analog
+        gains, before the noise), their mean response unchanged.
+    illuminant : Spectrum, optional
+        Needed by ``normalization="white"``.
+
+    Returns
+    -------
+    Camera
+    """
     from ..camera import load_camera
-    from ..datasets.sensors import gaussian_sensors
+    from ..datasets.sensors import Sensors, gaussian_sensors
+    from ..errors import ParameterError
     from ..simulation import FOUR_SENSOR_GRID, bayer
 
     c = [float(v) for v in centers]
@@ -128,9 +192,18 @@ def camera(n_sensors, sigma=0.0, seed=0, *, centers=CENTERS, std_nm=STD_NM):
         sens = gaussian_sensors(rgb, std_nm, names=("R", "G", "B"))
         tile = bayer("GRBG")
     else:
-        from ..errors import ParameterError
-
         raise ParameterError("sensors", f"the designs have 3 or 4 sensors, got {n_sensors!r}")
+    if normalization == "white":
+        if illuminant is None:
+            raise ParameterError("normalization", "'white' needs the scene illuminant (illuminant=)")
+        e = np.asarray(illuminant.on(sens.wavelengths), float)
+        response = sens.values @ e
+        if not np.all(response > 0):
+            raise ParameterError("normalization", "a sensor gives no response to the illuminant; cannot white-balance it")
+        gains = response.mean() / response
+        sens = Sensors(sens.wavelengths, sens.values * gains[:, None], sens.names, sens.unit, sens.name)
+    elif normalization != "area":
+        raise ParameterError("normalization", f"must be one of {', '.join(NORMALIZATIONS)}, got {normalization!r}")
     return load_camera("kodak-dcs200-ir").replace(
         name=f"gaussian-{n_sensors}", sensors=sens, mosaic=tile, noise_model="gaussian", noise_mean=0.0,
         noise_sigma=float(sigma), bits=8, seed=seed,
@@ -144,11 +217,56 @@ def camera_rate():
     return samples_per_degree(camera(4))
 
 
+def check_options(*, demosaic="bayesian", exposure_fill=EXPOSURE_FILL, normalization="area", prior_detail=None,
+                  noise_model=None, rendering="illuminant", surface_dimensions=None):
+    """Validate the unstated choices (see the module docstring); returns them as a dict, canonical.
+
+    Raises
+    ------
+    ParameterError
+        Naming the option at fault.
+    """
+    from ..errors import ParameterError
+
+    if demosaic not in DEMOSAIC_METHODS:
+        raise ParameterError("demosaic", f"must be bayesian, bayesian-original, bilinear or freeman (any tile), got {demosaic!r}")
+    if isinstance(exposure_fill, bool) or not isinstance(exposure_fill, (int, float, np.floating)) or not 0 < exposure_fill <= 1:
+        raise ParameterError("exposure_fill", f"the share of the 0-255 range must lie in (0, 1], got {exposure_fill!r}")
+    if normalization not in NORMALIZATIONS:
+        raise ParameterError("normalization", f"must be one of {', '.join(NORMALIZATIONS)}, got {normalization!r}")
+    bayes = demosaic.startswith("bayesian")
+    if prior_detail is not None:
+        if not bayes:
+            raise ParameterError("prior_detail", f"applies to the Bayesian demosaics only, not {demosaic!r}")
+        if isinstance(prior_detail, bool) or not isinstance(prior_detail, (int, float, np.floating)) or not 0 <= prior_detail < 100:
+            raise ParameterError("prior_detail", f"must be a number >= 0 (share of the largest prior variance), got {prior_detail!r}")
+        prior_detail = float(prior_detail)
+    if noise_model is not None:
+        allowed = {"bayesian": ("known", "ignored"), "bayesian-original": ("fraction",)}.get(demosaic, ())
+        if noise_model not in allowed:
+            raise ParameterError("noise_model", f"{demosaic!r} takes {', '.join(allowed) or 'no noise model'}, got {noise_model!r}")
+    if rendering not in RENDERINGS:
+        raise ParameterError("rendering", f"must be one of {', '.join(RENDERINGS)}, got {rendering!r}")
+    if surface_dimensions is not None:
+        if rendering != "illuminant":
+            raise ParameterError("surface_dimensions", "applies to the illuminant-based rendering only")
+        if surface_dimensions != 3:
+            raise ParameterError("surface_dimensions", f"None (as many as sensors) or 3, got {surface_dimensions!r}")
+        surface_dimensions = 3
+    return dict(demosaic=demosaic, exposure_fill=float(exposure_fill), normalization=normalization, prior_detail=prior_detail,
+                noise_model=noise_model, rendering=rendering, surface_dimensions=surface_dimensions)
+
+
 def configurations(scenes=("cacaphony290",), sigmas=SIGMAS, seeds=1, *, designs=DESIGNS, centers=CENTERS, std_nm=STD_NM,
-                   distance=DEFAULT_DISTANCE, monitor=DEFAULT_MONITOR, demosaic="bayesian", viewing=DEFAULT_VIEWING):
+                   distance=DEFAULT_DISTANCE, monitor=DEFAULT_MONITOR, demosaic="bayesian", viewing=DEFAULT_VIEWING,
+                   exposure_fill=EXPOSURE_FILL, normalization="area", prior_detail=None, noise_model=None,
+                   rendering="illuminant", surface_dimensions=None):
     """Validate a grid and list its tasks (scene x design x sigma x seed index); ``viewing`` as in
-    :func:`camsim_core.experiments.sensors.configurations`."""
+    :func:`camsim_core.experiments.sensors.configurations`, the other choices as in :func:`check_options`."""
     viewing = check_viewing(viewing)
+    options = check_options(demosaic=demosaic, exposure_fill=exposure_fill, normalization=normalization,
+                            prior_detail=prior_detail, noise_model=noise_model, rendering=rendering,
+                            surface_dimensions=surface_dimensions)
     from ..camera import load_camera
     from ..errors import ParameterError
 
@@ -162,19 +280,27 @@ def configurations(scenes=("cacaphony290",), sigmas=SIGMAS, seeds=1, *, designs=
         raise ParameterError("designs", f"choose among 3 and 4 sensors, got {designs}")
     distance = check_distance(distance)
     monitor = check_monitor(monitor)
-    if demosaic not in ("bayesian", "bayesian-original", "bilinear", "freeman"):
-        raise ParameterError("demosaic", f"must be bayesian, bayesian-original, bilinear or freeman (any tile), got {demosaic!r}")
     loaded = check_scenes(scenes)
-    cams = [load_camera("human-cones")] + [camera(n, centers=centers, std_nm=std_nm) for n in DESIGNS]
     out = []
     for name, scene in loaded.items():
-        exposure = common_exposure(scene, cams, distance)
+        exposure = design_exposure(scene, centers, std_nm, distance, options["exposure_fill"], options["normalization"])
         for n in designs:
             for sigma in sigmas:
                 for s in range(seeds):
-                    out.append(MosaicConfig(name, n, sigma, s, exposure, distance, monitor, centers, float(std_nm), demosaic,
-                                            viewing))
+                    out.append(MosaicConfig(name, n, sigma, s, exposure, distance, monitor, centers, float(std_nm),
+                                            viewing=viewing, **options))
     return out
+
+
+def design_exposure(scene, centers=CENTERS, std_nm=STD_NM, distance=DEFAULT_DISTANCE, exposure_fill=EXPOSURE_FILL,
+                    normalization="area"):
+    """The common exposure (s) of the cones and both designs on ``scene`` (:func:`~.grid.common_exposure`,
+    the brightest response at ``exposure_fill`` x 255)."""
+    from ..camera import load_camera
+
+    cams = [load_camera("human-cones")] + [camera(n, centers=centers, std_nm=std_nm, normalization=normalization,
+                                                  illuminant=scene.illuminant) for n in DESIGNS]
+    return common_exposure(scene, cams, distance, target=exposure_fill)
 
 
 @lru_cache(maxsize=8)
@@ -183,38 +309,79 @@ def _ideal(scene_name, distance, exposure, monitor_name):
     return ideal_reference(scene_name, camera(4), monitor_name, distance, exposure)
 
 
+def demosaic_options(config):
+    """Keyword options of :func:`camsim_core.demosaic` for ``config``'s prior and noise model."""
+    options = {}
+    if config.prior_detail is not None:
+        options["detail"] = config.prior_detail
+    if config.noise_model == "ignored":
+        options["noise_sigma"] = 0.0
+    return options
+
+
+def rendered_xyz(config):
+    """XYZ (H, W, 3) of one design's demosaiced, rendered image for ``config`` (simulate, demosaic, render).
+
+    Parameters
+    ----------
+    config : MosaicConfig
+
+    Returns
+    -------
+    numpy.ndarray
+        The monitor image's XYZ (cd/m^2).
+    """
+    from .. import demosaic, render, simulate
+    from ..scene import load_scene
+    from ._evaluation import xyz_of
+
+    scene = load_scene(config.scene)
+    monitor = _monitor_named(config.monitor)
+    cam = camera(config.sensors, config.sigma, config.noise_seed, centers=config.centers, std_nm=config.std_nm,
+                 normalization=config.normalization, illuminant=scene.illuminant)
+    raw = simulate(scene, cam, distance=config.distance, exposure=config.exposure)
+    full = demosaic(raw, method=config.demosaic, **demosaic_options(config))
+    if config.rendering == "baseline":
+        shown = render(full, monitor, method="baseline")
+    else:
+        shown = render(full, monitor, method="illuminant", illuminant=scene.illuminant,
+                       dimensions=config.surface_dimensions or config.sensors)
+    return xyz_of(shown, monitor)
+
+
+def ideal(config):
+    """The ideal image's XYZ, the monitor white and the camera's samples per degree for ``config`` (cached)."""
+    return _ideal(config.scene, config.distance, config.exposure, config.monitor)
+
+
 def evaluate(config):
-    """Mean S-CIELAB dE*ab of one design's demosaiced, illuminant-rendered image against the ideal image.
+    """Mean S-CIELAB dE*ab of one design's demosaiced, rendered image against the ideal image.
 
     Returns a dict: the configuration's fields, ``noise_seed``, ``height``,
     ``width``, ``error`` and ``seconds``.
     """
-    from .. import demosaic, render, simulate
-    from ..scene import load_scene
-    from ._evaluation import mean_scielab, xyz_of
+    from ._evaluation import mean_scielab
 
     t0 = time.perf_counter()
-    scene = load_scene(config.scene)
-    monitor = _monitor_named(config.monitor)
-    cam = camera(config.sensors, config.sigma, config.noise_seed, centers=config.centers, std_nm=config.std_nm)
-    raw = simulate(scene, cam, distance=config.distance, exposure=config.exposure)
-    full = demosaic(raw, method=config.demosaic)
-    shown = render(full, monitor, method="illuminant", illuminant=scene.illuminant, dimensions=config.sensors)
-    ideal_xyz, white, camera_rate = _ideal(config.scene, config.distance, config.exposure, config.monitor)
+    xyz = rendered_xyz(config)
+    ideal_xyz, white, camera_rate = ideal(config)
     spd, _ = viewing_rate(config.viewing, camera_rate)
-    error = mean_scielab(xyz_of(shown, monitor), ideal_xyz, spd, white)
+    error = mean_scielab(xyz, ideal_xyz, spd, white)
     rec = asdict(config)
     rec["centers"] = " ".join(f"{c:g}" for c in config.centers)
-    return {**rec, "noise_seed": config.noise_seed, "samples_per_degree": spd, "height": int(full.data.shape[0]), "width": int(full.data.shape[1]),
+    return {**rec, "noise_seed": config.noise_seed, "samples_per_degree": spd, "height": int(xyz.shape[0]), "width": int(xyz.shape[1]),
             "error": error, "seconds": time.perf_counter() - t0}
 
 
 def run(*, scenes=("cacaphony290",), sigmas=SIGMAS, seeds=1, designs=DESIGNS, centers=CENTERS, std_nm=STD_NM,
         distance=DEFAULT_DISTANCE, monitor=DEFAULT_MONITOR, demosaic="bayesian", viewing=DEFAULT_VIEWING, workers=None,
-        scheduler=None, processes=True, progress=False, function=evaluate):
-    """Run the sweep; one record per configuration (see :func:`evaluate`), in grid order."""
+        scheduler=None, processes=True, progress=False, function=evaluate, **options):
+    """Run the sweep; one record per configuration (see :func:`evaluate`), in grid order.
+
+    ``options``: the unstated choices of :func:`check_options` (``exposure_fill``, ``normalization``, ...).
+    """
     configs = configurations(scenes, sigmas, seeds, designs=designs, centers=centers, std_nm=std_nm, distance=distance,
-                             monitor=monitor, demosaic=demosaic, viewing=viewing)
+                             monitor=monitor, demosaic=demosaic, viewing=viewing, **options)
     return run_tasks(function, configs, workers=workers, scheduler=scheduler, processes=processes, progress=progress,
                      desc="mosaic")
 
