@@ -134,7 +134,8 @@ def test_study_runs_resumes_and_reports(tmp_path, capsys):
     rows = study.load(tmp_path)
     assert len(rows) == 4
     paths = study.write_report(rows, tmp_path)
-    assert {p.name for p in paths} == {"combinations.csv", "best.csv", "effects.csv", "effects.png", "best.png"}
+    assert {p.name for p in paths} == {"combinations.csv", "best.csv", "effects.csv", "effects.png", "best.png", "summary.md"}
+    assert "| chapter | | | **2.37** |" in (tmp_path / "summary.md").read_text()
     with open(tmp_path / "effects.csv") as f:
         effects = list(csv.DictReader(f))
     assert {e["choice"] for e in effects} == set(study.CHOICES)

@@ -74,6 +74,10 @@ __all__ = [
     "crossover",
     "choice_effects",
     "RESULTS_NAME",
+    "rises",
+    "markdown",
+    "write_report",
+    "summary_text",
 ]
 
 #: The six cells in the table's order: (sensors, sigma).
@@ -426,8 +430,8 @@ def _flat(row):
 
 def write_report(rows, folder):
     """Write ``combinations.csv`` (every combination), ``best.csv`` (20 nearest the chapter, and 20 nearest with the
-    crossover), ``effects.csv`` (:func:`choice_effects`) and the figures ``effects.png`` and ``best.png``;
-    return the paths."""
+    crossover), ``effects.csv`` (:func:`choice_effects`), the figures ``effects.png`` and ``best.png`` and
+    ``summary.md`` (:func:`markdown`); return the paths."""
     from .results import write_csv
 
     folder = Path(folder)
@@ -441,6 +445,9 @@ def write_report(rows, folder):
     paths.append(write_csv([{k: (round(v, 3) if isinstance(v, float) else v) for k, v in e.items()} for e in effects],
                            folder / "effects.csv"))
     paths += plot(rows, effects, folder)
+    md = folder / "summary.md"
+    md.write_text(markdown(rows))
+    paths.append(md)
     return paths
 
 
@@ -514,3 +521,41 @@ def plot(rows, effects, folder):
     fig.tight_layout()
     p2 = save_png(fig, folder / "best.png", dpi=90)
     return [Path(p1), Path(p2)]
+
+
+def rises(cells):
+    """Each design's rise of the error from sigma 0 to sigma 5: (3 sensors, 4 sensors), dE."""
+    return cells[2] - cells[0], cells[5] - cells[3]
+
+
+def markdown(rows, count=10):
+    """Markdown tables of the results: the combinations nearest the chapter (all, and with the crossover), those
+    nearest the chapter's noise rises, and the effect of each choice (:func:`choice_effects`)."""
+    head = ("| rank | rms | max | 3: σ0 | 3: σ2 | 3: σ5 | 4: σ0 | 4: σ2 | 4: σ5 | crossover | fill | centres (nm) | "
+            "normalization | demosaic | rendering | viewing (samples/deg) |")
+    rule = "|" + "---|" * (head.count("|") - 1)
+
+    def line(i, r):
+        dem, ren = variant(r)
+        c = r["cells"]
+        return (f"| {i} | {r['rms']:.2f} | {r['max_abs']:.2f} | " + " | ".join(f"{v:.2f}" for v in c)
+                + f" | {'yes' if r['crossover'] else 'no'} | {r['exposure_fill']:g} | {r['centers']} | {r['normalization']} | "
+                f"{dem} | {ren} | {r['viewing']} ({r['samples_per_degree']:.4g}) |")
+
+    chapter = ("| chapter | | | " + " | ".join(f"**{v:.2f}**" for v in CHAPTER) + " | yes | | | | | | |")
+    out = []
+    for title, subset in (("Nearest the chapter (smallest RMS over the six cells)", rows),
+                          ("Nearest the chapter among the combinations with the crossover", [r for r in rows if r["crossover"]])):
+        out += [f"**{title}**", "", head, rule, chapter] + [line(i + 1, r) for i, r in enumerate(best(subset, count))] + [""]
+    r3, r4 = rises(CHAPTER)
+    near = sorted(rows, key=lambda r: math.hypot(rises(r["cells"])[0] - r3, rises(r["cells"])[1] - r4))[:count]
+    out += [f"**Nearest the chapter's rises from σ 0 to σ 5 (3 sensors +{r3:.2f}, 4 sensors +{r4:.2f})**", "", head, rule,
+            chapter] + [line(i + 1, r) for i, r in enumerate(near)] + [""]
+    out += ["**Each choice, averaged over the rest of the grid** (gap = dE(4 sensors) - dE(3 sensors); the chapter's gap "
+            f"is {CHAPTER[3] - CHAPTER[0]:.2f} at σ 0 and +{CHAPTER[5] - CHAPTER[2]:.2f} at σ 5, its rises +{r3:.2f} and +{r4:.2f})",
+            "", "| choice | value | combinations | gap σ0 | gap σ5 | rise 3 sensors | rise 4 sensors | share with crossover | best rms |",
+            "|---|---|---|---|---|---|---|---|---|"]
+    for e in choice_effects(rows):
+        out.append(f"| {e['choice']} | {e['value']} | {e['n']} | {e['gap_sigma0']:.2f} | {e['gap_sigma5']:.2f} | {e['rise3']:.2f} | "
+                   f"{e['rise4']:.2f} | {100 * e['crossover_share']:.0f} % | {e['best_rms']:.2f} |")
+    return "\n".join(out) + "\n"
