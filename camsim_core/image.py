@@ -158,6 +158,76 @@ class CameraImage:
         """A new image with ``changes`` and ``stage_name`` appended to the history."""
         return dataclasses.replace(self, history=self.history + (stage_name,), **changes)
 
+    def preview(self, max_side=256):
+        """sRGB preview (h, w, 3) in [0, 1] of the image, as its ``space`` is shown (see :mod:`camsim_core.preview`).
+
+        Parameters
+        ----------
+        max_side : int or None
+            Longest side of the preview, pixels (block means of the image's
+            pixels); ``None``: the image's own size.
+
+        Returns
+        -------
+        ndarray (h, w, 3)
+
+        Examples
+        --------
+        Rendered 8-bit monitor settings are shown as they are:
+
+        >>> import numpy as np
+        >>> image = CameraImage(np.full((2, 2, 3), 255.0), np.array([]), space="monitor")
+        >>> image.preview()[0, 0].tolist()
+        [1.0, 1.0, 1.0]
+        """
+        from .preview import image_srgb
+
+        return image_srgb(self, max_side=max_side)
+
+    def _summary_rows(self):
+        from .preview import wavelength_text
+
+        shape = " x ".join(str(v) for v in self.data.shape)
+        rows = [("name", self.name or "(unnamed)"), ("shape", shape), ("space", self.space),
+                ("wavelengths", wavelength_text(self.wavelengths)), ("unit", self.unit or "digital values")]
+        if self.sensor_names:
+            rows.append(("sensors", ", ".join(str(n) for n in self.sensor_names)))
+        if self.mosaiced and self.tile is not None:
+            rows.append(("mosaic tile", "; ".join(" ".join(str(v) for v in r) for r in np.asarray(self.tile).tolist())))
+        rows += [("bits", "unquantized" if self.bits is None else self.bits),
+                 ("exposure", f"{self.exposure:g} s, f/{self.f_stop:g}"),
+                 ("history", " > ".join(str(h) for h in self.history) or "none")]
+        return rows
+
+    def _repr_html_(self):
+        """Jupyter's view: an sRGB preview (at most 256 px on its long side) beside the image's metadata.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> out = CameraImage(np.zeros((2, 2, 3)), np.array([]), space="monitor", name="a<b")._repr_html_()
+        >>> "data:image/png;base64," in out, "a&lt;b" in out, "a<b" in out
+        (True, True, False)
+        """
+        from .preview import PREVIEW_SIDE, summary_html
+
+        kind = {"spectral": "Spectral image", "sensor": "Camera image",
+                "monitor-linear": "Rendered image (linear)", "monitor": "Rendered image"}[self.space]
+        if self.space == "sensor" and self.mosaiced:
+            kind = "Raw camera image"
+        title = f"{kind} {self.name!r}" if self.name else kind
+        try:
+            rgb = self.preview(PREVIEW_SIDE)
+        except Exception:  # an image no preview can show (e.g. an unusual shape): the table alone
+            rgb = None
+        return summary_html(title, rgb, self._summary_rows())
+
+    def _repr_png_(self):
+        """PNG bytes of the sRGB preview (at most 256 px on its long side), for Jupyter."""
+        from .preview import PREVIEW_SIDE, png_bytes
+
+        return png_bytes(self.preview(PREVIEW_SIDE))
+
     def metadata(self):
         """JSON-serializable description (everything but the data)."""
         return {

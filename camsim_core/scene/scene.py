@@ -130,7 +130,73 @@ class Scene:
 
     @property
     def shape(self):
+        """(H, W, N): pixels and wavelength bands.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> Scene(np.zeros((2, 3, 4)), [400, 500, 600, 700]).shape
+        (2, 3, 4)
+        """
         return tuple(self.data.shape)
+
+    def preview(self, max_side=256):
+        """sRGB preview (h, w, 3) in [0, 1]: CIE 1931 XYZ of the radiance, its 99th percentile of Y as white.
+
+        Parameters
+        ----------
+        max_side : int or None
+            Longest side of the preview, pixels (block means of the scene's
+            pixels); ``None``: the scene's own size.
+
+        Returns
+        -------
+        ndarray (h, w, 3)
+            See :func:`camsim_core.scene.preview.scene_srgb`.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> scene = Scene(np.ones((40, 60, 31)), np.arange(400.0, 701.0, 10.0), name="flat")
+        >>> scene.preview(max_side=30).shape
+        (20, 30, 3)
+        """
+        from .preview import scene_srgb
+
+        return scene_srgb(self, max_side=max_side)
+
+    def _summary_rows(self):
+        h, w, n = self.data.shape
+        from ..preview import wavelength_text
+
+        rows = [("name", self.name or "(unnamed)"), ("shape", f"{h} x {w} pixels x {n} bands"),
+                ("wavelengths", wavelength_text(self.wavelengths)), ("unit", self.unit),
+                ("distance", f"{self.distance:g} m"),
+                ("angular resolution", f"{self.angular_resolution[0]:g} x {self.angular_resolution[1]:g} px/deg"),
+                ("illuminant", "none" if self.illuminant is None else self.illuminant.name or "known")]
+        rows += [("notice", n) for n in self.notices]
+        return rows
+
+    def _repr_html_(self):
+        """Jupyter's view: an sRGB preview (at most 256 px on its long side) beside the scene's metadata.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> out = Scene(np.ones((4, 4, 31)), np.arange(400.0, 701.0, 10.0), name="<flat>")._repr_html_()
+        >>> "data:image/png;base64," in out, "&lt;flat&gt;" in out, "<flat>" in out
+        (True, True, False)
+        """
+        from ..preview import PREVIEW_SIDE, summary_html
+
+        return summary_html(f"Scene {self.name!r}" if self.name else "Scene", self.preview(PREVIEW_SIDE),
+                            self._summary_rows())
+
+    def _repr_png_(self):
+        """PNG bytes of the sRGB preview (at most 256 px on its long side), for Jupyter."""
+        from ..preview import PREVIEW_SIDE, png_bytes
+
+        return png_bytes(self.preview(PREVIEW_SIDE))
 
     def describe(self):
         """A dict of the scene's metadata (for ``camsim info`` and the explorer)."""
