@@ -117,7 +117,7 @@ def test_a_simulated_pipeline_shows_every_stage():
 
 def test_explorer_opens_for_a_scene_and_camera():
     pn = pytest.importorskip("panel")
-    from camsim_explorer.notebook import show
+    from camsim_explorer import show
 
     page = show(scene="macbeth", camera="kodak-dcs200", exposure=0.05)
     assert isinstance(page, (pn.viewable.Viewable, pn.template.base.BaseTemplate))
@@ -130,7 +130,7 @@ def test_explorer_opens_for_a_scene_and_camera():
 
 def test_explorer_refuses_unknown_names():
     pytest.importorskip("panel")
-    from camsim_explorer.notebook import show
+    from camsim_explorer import show
 
     with pytest.raises(ParameterError, match="camera"):
         show(scene="macbeth", camera="no-such-camera")
