@@ -49,6 +49,14 @@ class Monitor:
         Settings in [0, 1].
     bits : int
         Depth of the frame buffer, 1 to 16 (8: values 0-255).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> g = np.linspace(0, 1, 11)
+    >>> m = Monitor(np.array([450.0, 550.0, 650.0]), np.eye(3), g, np.stack([g ** 2] * 3, axis=1), name="square-law")
+    >>> m.levels, m.describe()["wavelengths_nm"]
+    (256, '450-650')
     """
 
     wavelengths: np.ndarray
@@ -113,7 +121,18 @@ class Monitor:
         return resample_power(self.wavelengths, self.primaries.T, wavelengths).T
 
     def linear_to_settings(self, linear):
-        """Gamma correction by table lookup: linear intensities (..., 3) in [0, 1] -> settings in [0, 1]."""
+        """Gamma correction by table lookup: linear intensities (..., 3) in [0, 1] -> settings in [0, 1].
+
+        Examples
+        --------
+        A monitor whose output is the square of its setting (a gamma table of settings^2):
+
+        >>> import numpy as np
+        >>> g = np.linspace(0, 1, 11)
+        >>> m = Monitor(np.array([450.0, 550.0, 650.0]), np.eye(3), g, np.stack([g ** 2] * 3, axis=1), name="square-law")
+        >>> m.linear_to_settings([0.25, 0.25, 1.0]).tolist()
+        [0.5, 0.5, 1.0]
+        """
         lin = np.clip(np.asarray(linear, float), 0.0, 1.0)
         out = np.empty_like(lin)
         for c in range(3):
@@ -124,7 +143,16 @@ class Monitor:
         return out
 
     def settings_to_linear(self, settings):
-        """The gamma table forward: settings (..., 3) in [0, 1] -> linear intensities in [0, 1]."""
+        """The gamma table forward: settings (..., 3) in [0, 1] -> linear intensities in [0, 1].
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> g = np.linspace(0, 1, 11)
+        >>> m = Monitor(np.array([450.0, 550.0, 650.0]), np.eye(3), g, np.stack([g ** 2] * 3, axis=1), name="square-law")
+        >>> m.settings_to_linear([0.5, 0.5, 0.0]).tolist()
+        [0.25, 0.25, 0.0]
+        """
         s = np.clip(np.asarray(settings, float), 0.0, 1.0)
         out = np.empty_like(s)
         for c in range(3):
@@ -142,6 +170,16 @@ class Monitor:
         one), the rule the compiled rendering follows. ~10x faster than
         ``np.interp`` over every pixel. Returns the input's float dtype
         (float32 stays float32).
+
+        Examples
+        --------
+        A quarter of full intensity on a square-law monitor: setting 0.5, frame-buffer value rint(127.5) = 128.
+
+        >>> import numpy as np
+        >>> g = np.linspace(0, 1, 11)
+        >>> m = Monitor(np.array([450.0, 550.0, 650.0]), np.eye(3), g, np.stack([g ** 2] * 3, axis=1), name="square-law")
+        >>> m.linear_to_frame_buffer(np.array([[0.25, 1.0, 0.0]])).tolist()
+        [[128.0, 255.0, 0.0]]
         """
         lin = np.asarray(linear)
         dtype = lin.dtype if lin.dtype in (np.float32, np.float64) else np.dtype(np.float64)
@@ -195,6 +233,14 @@ class Monitor:
         Whole numbers in range are looked up (the same numbers); anything else
         goes through :meth:`settings_to_linear`. Returns the input's float
         dtype (float32 stays float32).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> g = np.linspace(0, 1, 11)
+        >>> m = Monitor(np.array([450.0, 550.0, 650.0]), np.eye(3), g, np.stack([g ** 2] * 3, axis=1), name="square-law")
+        >>> m.frame_buffer_to_linear(np.array([255.0, 0.0, 255.0])).tolist()
+        [1.0, 0.0, 1.0]
         """
         v = np.asarray(values)
         dtype = v.dtype if v.dtype in (np.float32, np.float64) else np.dtype(np.float64)
@@ -439,7 +485,14 @@ def _shipped(name):
 
 
 def load_monitor(name_or_path):
-    """A :class:`Monitor` from a shipped name (``MONITOR_NAMES``) or an ``.Smon`` path."""
+    """A :class:`Monitor` from a shipped name (``MONITOR_NAMES``) or an ``.Smon`` path.
+
+    Examples
+    --------
+    >>> monitor = load_monitor("simtoolbox-test")
+    >>> monitor.bits, monitor.primaries.shape[1]
+    (8, 3)
+    """
     if isinstance(name_or_path, Monitor):
         return name_or_path
     key = str(name_or_path)

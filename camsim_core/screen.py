@@ -27,7 +27,15 @@ __all__ = ["to_screen", "block_size"]
 
 
 def block_size(shape, max_shape):
-    """Image pixels per view pixel (along each axis) that fit an image of ``shape`` into ``max_shape``."""
+    """Image pixels per view pixel (along each axis) that fit an image of ``shape`` into ``max_shape``.
+
+    Examples
+    --------
+    A 1000 x 3000 image in a 256 x 256 view: 12 x 12 image pixels per view pixel.
+
+    >>> block_size((1000, 3000), (256, 256))
+    12
+    """
     return max(1, math.ceil(shape[0] / max_shape[0]), math.ceil(shape[1] / max_shape[1]))
 
 
@@ -53,6 +61,13 @@ def to_screen(data, max_shape=(1080, 1920), region=None):
         sum exactly in float32 for blocks of up to 16 x 16 pixels).
     block : int
         Image pixels per view pixel along each axis (1: the region's own pixels).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> view, block = to_screen(np.arange(16.0).reshape(4, 4), (2, 2))
+    >>> view.tolist(), block
+    ([[2.5, 4.5], [10.5, 12.5]], 2)
     """
     a = np.asarray(data)
     if a.ndim not in (2, 3) or a.shape[0] == 0 or a.shape[1] == 0:

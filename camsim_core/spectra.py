@@ -19,12 +19,28 @@ __all__ = ["Spectrum", "resample", "resample_power", "band_width", "sampling_wav
 
 
 def sampling_wavelengths(start, step, count):
-    """Wavelengths (nm) of a ``[start step count]`` sampling, as SimToolbox's ``S`` vectors."""
+    """Wavelengths (nm) of a ``[start step count]`` sampling, as SimToolbox's ``S`` vectors.
+
+    Examples
+    --------
+    >>> w = sampling_wavelengths(400, 10, 31)
+    >>> w.size, float(w[0]), float(w[-1])
+    (31, 400.0, 700.0)
+    """
     return float(start) + float(step) * np.arange(int(count))
 
 
 def check_overlap(source_wavelengths, target_wavelengths, what="sensitivities"):
-    """Raise when two wavelength ranges do not overlap at all."""
+    """Raise when two wavelength ranges do not overlap at all.
+
+    Examples
+    --------
+    >>> check_overlap([400, 700], [500, 1000])  # overlap: nothing to say
+    >>> check_overlap([400, 700], [800, 1000])
+    Traceback (most recent call last):
+    ...
+    camsim_core.errors.ParameterError: sensitivities: measured over 400-700 nm, which does not overlap the scene's 800-1000 nm
+    """
     s = np.asarray(source_wavelengths, float)
     t = np.asarray(target_wavelengths, float)
     if s.max() < t.min() or s.min() > t.max():
@@ -49,6 +65,13 @@ def resample(wavelengths, values, target_wavelengths):
     Returns
     -------
     ndarray, (..., M)
+
+    Examples
+    --------
+    A triangle peaking at 500 nm, read half-way up its side and beyond its range:
+
+    >>> resample([400, 500, 600], [0.0, 1.0, 0.0], [450, 500, 650]).tolist()
+    [0.5, 1.0, 0.0]
     """
     w = np.asarray(wavelengths, float)
     v = np.asarray(values, float)
@@ -65,7 +88,15 @@ def resample(wavelengths, values, target_wavelengths):
 
 
 def band_width(wavelengths):
-    """The band width (nm) of a sampling: its median step (1 nm for a single sample)."""
+    """The band width (nm) of a sampling: its median step (1 nm for a single sample).
+
+    Examples
+    --------
+    >>> band_width([400, 410, 420])
+    10.0
+    >>> band_width([550])
+    1.0
+    """
     w = np.asarray(wavelengths, float)
     return float(np.median(np.diff(w))) if w.size > 1 else 1.0
 
@@ -75,6 +106,13 @@ def resample_power(wavelengths, values, target_wavelengths):
 
     Interpolation as :func:`resample`, times the ratio of the band widths, so
     that a 5 nm-band illuminant on a 10 nm sampling keeps its radiance.
+
+    Examples
+    --------
+    A flat power of 1 per 5 nm band is 2 per 10 nm band:
+
+    >>> resample_power([400, 405, 410], [1.0, 1.0, 1.0], [400, 410]).tolist()
+    [2.0, 2.0]
     """
     return resample(wavelengths, values, target_wavelengths) * (band_width(target_wavelengths) / band_width(wavelengths))
 
@@ -84,6 +122,12 @@ class Spectrum:
     """One spectral function (an illuminant, a reflectance) with its own sampling.
 
     ``values`` are per wavelength band of ``wavelengths`` for power spectra.
+
+    Examples
+    --------
+    >>> ramp = Spectrum([400, 500], [1.0, 3.0], "ramp")
+    >>> ramp.on([450, 600]).tolist()
+    [2.0, 0.0]
     """
 
     wavelengths: np.ndarray

@@ -8,7 +8,11 @@ import pytest
 MODULES = ["camsim_core.io.guard", "camsim_core.io.matv5", "camsim_core.io.hdf5", "camsim_core.io.isolated",
            "camsim_core.review.sweep", "camsim_core.review.report", "camsim_core.datasets",
            "camsim_core.metrics.cielab", "camsim_core.metrics.s_cielab",
-           "camsim_core._parallel", "camsim_core.scene.matlab"]
+           "camsim_core._parallel", "camsim_core.scene.matlab",
+           "camsim_core.scene.scene", "camsim_core.scene.preview", "camsim_core.image", "camsim_core.preview",
+           "camsim_core.spectra", "camsim_core.errors", "camsim_core.screen", "camsim_core.simulation.mosaic",
+           "camsim_core.optics.diffraction", "camsim_core.metrics.snr", "camsim_core.scene.synthetic",
+           "camsim_core.metrics.viewing", "camsim_core.rendering.xyz", "camsim_core.monitor"]
 
 
 @pytest.mark.parametrize("name", MODULES)

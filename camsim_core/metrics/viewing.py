@@ -136,6 +136,11 @@ def parse_viewing(value=None):
 
     Texts: ``camera``, ``camera/N``, ``spd:S`` (or ``S``), ``display:PITCHmm@DISTANCEm``
     (or ``PITCH@DISTANCE``, mm and m). Anything else is a :class:`ParameterError`.
+
+    Examples
+    --------
+    >>> parse_viewing("camera/10").spec, parse_viewing(23).spec
+    ('camera/10', 'spd:23')
     """
     if value is None:
         value = DEFAULT_VIEWING
@@ -163,5 +168,11 @@ def parse_viewing(value=None):
 
 
 def viewing_samples_per_degree(viewing, image=None):
-    """Samples per degree for ``image`` under ``viewing`` (anything :func:`parse_viewing` takes)."""
+    """Samples per degree for ``image`` under ``viewing`` (anything :func:`parse_viewing` takes).
+
+    Examples
+    --------
+    >>> viewing_samples_per_degree("spd:10.26")
+    10.26
+    """
     return parse_viewing(viewing).rate(image)

@@ -25,7 +25,17 @@ __all__ = ["to_xyz", "monitor_xyz_matrix", "white_xyz"]
 
 
 def monitor_xyz_matrix(monitor):
-    """(3, 3) matrix from linear phosphor intensities to XYZ (cd/m^2): 683 cmf^T B_M."""
+    """(3, 3) matrix from linear phosphor intensities to XYZ (cd/m^2): 683 cmf^T B_M.
+
+    Examples
+    --------
+    Each column is the XYZ (cd/m^2) of one phosphor at full setting:
+
+    >>> from camsim_core.monitor import load_monitor
+    >>> m = monitor_xyz_matrix(load_monitor("simtoolbox-test"))
+    >>> m.shape, bool((m[1] > 0).all())
+    ((3, 3), True)
+    """
     from ..datasets.sensors import cie1931_xyz
 
     cmf = cie1931_xyz().on(monitor.wavelengths)
@@ -33,7 +43,17 @@ def monitor_xyz_matrix(monitor):
 
 
 def white_xyz(monitor):
-    """XYZ (cd/m^2) of the monitor's white (every phosphor at full setting): a white point for CIELAB."""
+    """XYZ (cd/m^2) of the monitor's white (every phosphor at full setting): a white point for CIELAB.
+
+    Examples
+    --------
+    The ``simtoolbox-test`` monitor's white: Y about 143 cd/m^2.
+
+    >>> import numpy as np
+    >>> from camsim_core.monitor import load_monitor
+    >>> np.round(white_xyz(load_monitor("simtoolbox-test"))).tolist()
+    [136.0, 143.0, 203.0]
+    """
     return monitor_xyz_matrix(monitor).sum(axis=1)
 
 
@@ -41,6 +61,18 @@ def to_xyz(rendered, monitor):
     """(H, W, 3) XYZ in cd/m^2 of a rendered image (``space="monitor"``, frame-buffer values) on ``monitor``.
 
     In the image's float dtype (a float32 rendering gives float32 XYZ).
+
+    Examples
+    --------
+    A frame buffer at full setting shows the monitor's white:
+
+    >>> import numpy as np
+    >>> from camsim_core.image import CameraImage
+    >>> from camsim_core.monitor import load_monitor
+    >>> monitor = load_monitor("simtoolbox-test")
+    >>> white = CameraImage(np.full((1, 2, 3), 255.0), np.array([]), space="monitor")
+    >>> bool(np.allclose(to_xyz(white, monitor)[0, 1], white_xyz(monitor)))
+    True
     """
     data, convert = xyz_converter(rendered, monitor)
     return map_pixels(convert, data, into=(3, data.dtype))  # by chunks: no full-size temporaries

@@ -29,6 +29,15 @@ def scale_to_luminance(wavelengths, spd_values, luminance):
 
     Luminance is 683 lm/W times the sum over bands of y-bar times radiance per
     band (CIE 1931 y-bar from colour-science, interpolated).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from camsim_core.datasets.sensors import cie1931_xyz
+    >>> w = DEFAULT_WAVELENGTHS
+    >>> k = scale_to_luminance(w, np.ones(w.size), 100.0)
+    >>> round(683 * float(cie1931_xyz().on(w)[1] @ (k * np.ones(w.size))), 6)
+    100.0
     """
     from ..datasets.sensors import cie1931_xyz
 
@@ -56,6 +65,13 @@ def macbeth_scene(
     have ``white_luminance`` cd/m^2. Radiance = reflectance x illuminant, per
     band. Gaps have zero reflectance. The scene's ``comments`` name the patch
     order; :func:`patch_centers` gives where each patch lies.
+
+    Examples
+    --------
+    Patches of 4 px with 1 px gaps: 4 x 6 patches, 31 bands (400-700 nm):
+
+    >>> macbeth_scene(patch_size=4, border=1).shape
+    (21, 31, 31)
     """
     if patch_size < 1 or border < 0:
         raise ParameterError("patch_size", "must be >= 1 (and border >= 0)")
@@ -86,7 +102,13 @@ def macbeth_scene(
 
 
 def patch_centers(patch_size=16, border=4):
-    """(row, col) pixel centres of the 24 patches of :func:`macbeth_scene`."""
+    """(row, col) pixel centres of the 24 patches of :func:`macbeth_scene`.
+
+    Examples
+    --------
+    >>> patch_centers(16, 4)[:2]
+    [(12, 12), (12, 32)]
+    """
     step = patch_size + border
     return [(border + (i // 6) * step + patch_size // 2, border + (i % 6) * step + patch_size // 2) for i in range(24)]
 
@@ -112,6 +134,12 @@ def stripe_scene(
     resolution so that resampling leaves it pixel for pixel: with a GR/BG
     Bayer tile and ``phase=0`` the stripes cover every blue pixel and no red
     one, which is the figure's yellow-field case.
+
+    Examples
+    --------
+    >>> scene = stripe_scene(8, 8, period=2)
+    >>> scene.shape, scene.name
+    ((8, 8, 31), 'stripes')
     """
     w = np.asarray(wavelengths, float)
     spd, e = _illuminant(illuminant, w)

@@ -25,14 +25,26 @@ FOUR_SENSOR_GRID = np.array([[0, 1], [2, 3]])
 
 
 def bayer(phase="GRBG", order=(0, 1, 2)):
-    """A Bayer tile; ``order`` gives the sensor indices used for R, G and B."""
+    """A Bayer tile; ``order`` gives the sensor indices used for R, G and B.
+
+    Examples
+    --------
+    >>> bayer("RGGB").tolist()
+    [[0, 1], [1, 2]]
+    """
     if phase not in BAYER:
         raise ParameterError("phase", f"unknown Bayer phase {phase!r}; one of {', '.join(BAYER)}")
     return np.asarray(order)[BAYER[phase]]
 
 
 def tile_index_map(tile, shape):
-    """The tile repeated over an image of ``shape`` (H, W): (H, W) or (H, W, tiers) sensor indices."""
+    """The tile repeated over an image of ``shape`` (H, W): (H, W) or (H, W, tiers) sensor indices.
+
+    Examples
+    --------
+    >>> tile_index_map(bayer("GRBG"), (3, 3)).tolist()
+    [[1, 0, 1], [2, 1, 2], [1, 0, 1]]
+    """
     t = np.asarray(tile)
     H, W = shape
     n, m = t.shape[:2]
