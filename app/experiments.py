@@ -41,6 +41,10 @@ def sensors_plot(records):
     return panels
 
 
+#: The longest text taken in the alphas or sigmas box (characters): 30 configurations need far fewer.
+MAX_TEXT = 400
+
+
 class ExperimentsView:
     """Widgets, a run button and the plot of a small sensors sweep."""
 
@@ -56,8 +60,11 @@ class ExperimentsView:
             css_classes=["camsim-exp-message"])
         self.plots = [pn.pane.HoloViews(hv.Curve([]).opts(width=380, height=300, title=f"{m}: not run yet"),
                                         css_classes=["camsim-exp-plot"], linked_axes=False) for m in METHODS]
+        self.plot_row = pn.Row(*self.plots, visible=False)  # shown once a run has results: no empty axes before
 
     def _parse(self, text, name):
+        if len(text) > MAX_TEXT:
+            raise CamsimError(f"{name}: at most {MAX_TEXT} characters, got {len(text)}")
         try:
             return [float(v) for v in text.replace(",", " ").split()]
         except ValueError:
@@ -98,8 +105,9 @@ class ExperimentsView:
         else:
             for pane, panel in zip(self.plots, sensors_plot(records)):
                 pane.object = panel
+            self.plot_row.visible = True
             self.message.object = f"Done: {len(records)} configurations (mean S-CIELAB dE against the ideal image)."
         self.button.disabled = False
 
     def panel(self):
-        return pn.Column(pn.Row(self.alphas, self.sigmas, self.button), self.message, pn.Row(*self.plots), name="Experiments")
+        return pn.Column(pn.Row(self.alphas, self.sigmas, self.button), self.message, self.plot_row, name="Experiments")

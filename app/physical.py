@@ -126,7 +126,7 @@ class SensorControls:
     here); a cleared field returns to the sheet's. A refused value (out of
     range, a full well not above the read noise) gets the state's message and
     the field goes back. For the chapter's cameras, calibrated in digital
-    units, the fields are disabled and a note says why.
+    units, the fields are hidden and a note says why.
     """
 
     #: (label, CSS class) of each field of :data:`SENSOR_FIELDS`
@@ -162,10 +162,12 @@ class SensorControls:
         try:
             with pn.io.hold():
                 for name, box in self.inputs.items():
-                    box.disabled = fields is None
-                    value = None if fields is None else fields[name]
-                    # six significant digits on screen (a well scaled with the area: 877551, not 877551.0204081632)
-                    box.value = None if value is None else float(f"{value:.6g}")
+                    # a camera in digital units has no such fields: hidden, the note says why (an emptied number
+                    # box showed "NaN": Panel sends an empty value to the browser as NaN)
+                    box.visible = fields is not None
+                    if fields is not None:
+                        # six significant digits on screen (a well scaled with the area: 877551, not 877551.0204081632)
+                        box.value = float(f"{fields[name]:.6g}")
                 self.note.object = (f"Electron-level cameras only ({', '.join(PHYSICAL_NAMES)}): the chapter's cameras "
                                     "are calibrated in digital units" if fields is None else
                                     "The sensor keeps its size: a new pitch changes the pixel count, and the full well "

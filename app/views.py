@@ -469,8 +469,52 @@ class Text:
         return self.pane
 
 
+#: A view's title stays on one line (cut with an ellipsis): a title wrapped to two lines pushed its image
+#: 17 px below its neighbours'.
+_ONE_LINE = ":host { display: block; } div { white-space: nowrap; overflow: hidden; text-overflow: ellipsis; }"
+
+
+#: The scene's facts (``Scene.describe()``) as the Scene tab names them.
+_FACT_LABELS = {"name": "Name", "kind": "Kind", "size_px": "Size (px)", "planes": "Planes",
+                "wavelengths_nm": "Wavelengths (nm)", "distance_m": "Distance (m)",
+                "angular_resolution_px_per_deg": "Angular resolution (px/deg)", "unit": "Unit",
+                "radiance_range": "Radiance, lowest to highest", "illuminant": "Illuminant", "notices": "Notices"}
+
+
+def _fact_text(value):
+    """A value of ``Scene.describe()`` as a reader writes it: numbers to 4 significant digits, lists joined,
+    an x/y pair as "x x y" (never a Python repr)."""
+    if isinstance(value, bool) or value is None:
+        return {True: "yes", False: "no", None: "none"}[value]
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    if isinstance(value, dict):
+        if set(value) == {"x", "y"}:
+            x, y = (_fact_text(value[k]) for k in ("x", "y"))
+            return x if x == y else f"{x} (x), {y} (y)"
+        return "; ".join(f"{k}: {_fact_text(v)}" for k, v in value.items()) or "none"
+    if isinstance(value, (list, tuple)):
+        return "; ".join(_fact_text(v) for v in value) or "none"
+    return str(value)
+
+
+def scene_facts(described):
+    """(label, text) rows of a scene's ``describe()`` dict for the Scene tab: labelled in words, values as
+    text; the radiance range with its unit, the file's comments left out (shown elsewhere)."""
+    unit = described.get("unit", "")
+    rows = []
+    for key, value in described.items():
+        if key == "comments":
+            continue
+        text = _fact_text(value)
+        if key == "radiance_range" and isinstance(value, (list, tuple)) and len(value) == 2:
+            text = f"{_fact_text(value[0])} to {_fact_text(value[1])} {unit}".strip()
+        rows.append((_FACT_LABELS.get(key, key.replace("_", " ").capitalize()), text))
+    return rows
+
+
 def _label(text, css):
-    return Text(text, ["camsim-label", css])
+    return Text(text, ["camsim-label", css], stylesheets=[_ONE_LINE])
 
 
 _RGB_HOVER_JS = """
@@ -559,7 +603,10 @@ class ResultsView:
             parts = [self.labels[key], pn.pane.Bokeh(fig, sizing_mode="stretch_width")]
             if key == "de":
                 self.colour_bar = ColourBar(self.mapper, "dE", "camsim-de-colorbar")
-                parts.append(pn.pane.Bokeh(self.colour_bar.figure, sizing_mode="stretch_width"))
+                # in a column of its own: Bokeh aligns the frames of figures in one column, and the bar's borders
+                # (room for its end labels) narrowed the map's frame by 30 px, ~9 % of a view at 1366 px
+                parts.append(pn.Column(pn.pane.Bokeh(self.colour_bar.figure, sizing_mode="stretch_width"),
+                                       sizing_mode="stretch_width", margin=0))
             self.panes[key] = pn.Column(*parts, css_classes=[f"camsim-{key}", "camsim-view"], sizing_mode="stretch_width",
                                         stylesheets=[STILL_BUSY_CSS])
         # the histogram keeps its own axes, refitted to each result
@@ -803,7 +850,7 @@ class ResultsView:
             self._show("raw", view["image"], names=view["names"], value=view["value"], sensor=view["sensor"])
         self.labels["raw"].object = self.TITLES["raw" if raw.mosaiced else "raw_full"]
         skipped = "demosaic" in getattr(res, "skipped", {})
-        self.labels["demosaiced"].object = ("Demosaicing not needed (full-colour image): the sensor planes"
+        self.labels["demosaiced"].object = ("Sensor planes (full colour: no demosaicing)"
                                             if skipped else f"<span title='{_LINEAR_NOTE}'>Demosaiced "
                                                            f"({html_text(self.state.shown.get('demosaic_method', ''))})</span>")
         shape = raw.data.shape[:2]
@@ -1082,7 +1129,7 @@ class SceneView:
             self.rgb_source.data = dict(image=[rgba32(scene_srgb(scene))], x=[0], y=[0], dw=[w], dh=[h])
             d = scene.describe() if hasattr(scene, "describe") else {}
             # names, units and notices come from the scene's file: shown as text
-            rows = [f"| {md_text(key)} | {md_text(v)} |" for key, v in d.items() if key not in ("comments",)]
+            rows = [f"| {md_text(label)} | {md_text(text)} |" for label, text in scene_facts(d)]
             self.meta.object = "| | |\n|---|---|\n" + "\n".join(rows)
             self.reset_spectra()
         plane = np.asarray(scene.data[:, :, k], np.float32)

@@ -490,12 +490,12 @@ def _box_shows(page, css, predicate, timeout=30.0):
 def test_sensor_fields_of_an_electron_level_camera_from_the_sidebar(browser, page):
     page.page.locator(".card-header", has_text="Sensor (electrons)").first.click()
     well = _sensor_box(page, "w-sensor-well")
-    assert well.is_disabled()  # the chapter's DCS-200 is calibrated in digital units
+    assert not well.is_visible()  # the chapter's DCS-200 is calibrated in digital units: no sensor fields
     note = page.page.locator(".w-sensor-note").first
     assert "digital units" in note.evaluate("e => (e.shadowRoot || e).textContent")
     page.select("w-camera", "imx174")
     own = page.wait_for(lambda s: s["params"]["camera"] == "imx174" and not s["computing"])
-    _box_shows(page, "w-sensor-well", lambda text, box: not box.is_disabled())
+    _box_shows(page, "w-sensor-well", lambda text, box: box.is_visible() and text != "")
     assert float(_sensor_box(page, "w-sensor-pitch").input_value()) == 5.86  # the sheet's values
     assert float(well.input_value()) == 32000
     assert page.page.locator(".w-noise input").first.is_disabled()  # the sensor's own noise applies
@@ -518,6 +518,13 @@ def test_sensor_fields_of_an_electron_level_camera_from_the_sidebar(browser, pag
         assert second.wait_for(lambda s: s["params"]["sensor"] == quiet["params"]["sensor"])["raw_hash"] == quiet["raw_hash"]
     finally:
         second.close()
+    # back to a camera in digital units: the fields go, none left showing "NaN" (issue 38 defect 11)
+    page.select("w-camera", "kodak-dcs200-ir")
+    page.wait_for(lambda s: s["params"]["camera"] == "kodak-dcs200-ir" and not s["computing"])
+    eventually(lambda: [_sensor_box(page, c).is_visible() for c in ("w-sensor-well", "w-sensor-pitch")] == [False, False])
+    assert "digital units" in note.evaluate("e => (e.shadowRoot || e).textContent")
+    assert not any("NaN" in _sensor_box(page, c).input_value() for c in ("w-sensor-well", "w-sensor-pitch", "w-sensor-read")
+                   if _sensor_box(page, c).is_visible())
     page.shot("sensor-fields")
     # another camera starts from its own sheet
     page.select("w-camera", "phone-1.4um")

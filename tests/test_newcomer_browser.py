@@ -343,3 +343,54 @@ def test_compare_tab_with_three_cameras_fits_1366_lines_up_images_and_sweeps_onl
         assert page.errors() == []
     finally:
         page.close()
+
+
+def _drawn_width(png_bytes):
+    """Columns of a view's screenshot holding something other than the page's white (the image's width)."""
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    a = np.asarray(Image.open(io.BytesIO(png_bytes)).convert("RGB")).astype(int)
+    cols = np.flatnonzero((np.abs(a - 255).sum(axis=2) > 24).any(axis=0))
+    return int(cols[-1] - cols[0] + 1) if cols.size else 0
+
+
+def test_small_things_views_line_up_and_text_reads_as_text(browser, server):
+    """Defect 11: the dE map drawn ~9 % narrower than the other views; a two-line title pushing its image
+    17 px down; the scene's facts as Python reprs; empty axes on the Experiments tab before a run."""
+    page = Page(browser, server)
+    try:
+        page.page.set_viewport_size({"width": 1366, "height": 768})
+
+        def same_widths():
+            de = _drawn_width(page.page.locator(".camsim-de-plot").first.screenshot())
+            ideal = _drawn_width(page.page.locator(".camsim-ideal-plot").first.screenshot())
+            return ideal > 200 and abs(de - ideal) <= 3 and (de, ideal)
+
+        _until(same_widths, "the dE map as wide as the ideal image")
+        page.select("w-camera", "cie1931")  # full colour: the demosaiced view's title says why it is not demosaiced
+        page.wait_for(lambda s: s["params"]["camera"] == "cie1931" and not s["computing"])
+
+        def first_row_level():
+            tops = [page.page.locator(f".camsim-{k}-plot").first.bounding_box()["y"] for k in ("raw", "demosaiced", "rendered")]
+            label = page.page.locator(".camsim-demosaiced-label").first.evaluate("e => (e.shadowRoot || e).textContent")
+            return "no demosaicing" in label and max(tops) - min(tops) <= 1, tops, label[-60:]
+
+        wait_until(first_row_level, what="the first row's images level under one-line titles", until=lambda v: v[0])
+        page.shot("full-colour-titles-1366")
+
+        page.page.locator(".bk-tab").filter(has_text="Scene").first.click()
+        facts = _until(lambda: (t := " ".join(page.page.locator(".camsim-scene-meta table").all_inner_texts()))
+                       and "Angular" in t and t,
+                       "the scene's facts")
+        assert not any(c in facts for c in "{}[]'"), facts  # words and numbers, never a Python repr
+        assert "57.3" in facts and "W/sr/m^2" in facts, facts
+
+        page.page.locator(".bk-tab").filter(has_text="Experiments").first.click()
+        page.page.locator(".w-exp-run button").first.wait_for(state="visible")
+        assert page.page.locator(".camsim-exp-plot").count() == 0 or not page.page.locator(".camsim-exp-plot").first.is_visible()
+        assert page.errors() == []
+    finally:
+        page.close()

@@ -313,3 +313,12 @@ def test_a_design_has_one_colour_in_the_reports_histogram_and_sweep_plot(dcs, co
     assert {live_colour, dcs_colour} <= hist
     assert dcs_colour in sweep and live_colour not in sweep
     assert f"border-left: 6px solid {dcs_colour}\">dcs" in text
+
+
+def test_report_writes_a_number_one_way_whatever_its_type(dcs, cones):
+    """Issue 38 defect 11: the report printed noise sigma 0 for one design and 0.0 for another."""
+    a = dataclasses.replace(dcs, params={**dcs.params, "noise_sigma": 0})
+    b = dataclasses.replace(cones, params={**cones.params, "noise_sigma": 0.0})
+    text = report_html([a, b])
+    row = re.search(r"<tr><th>noise_sigma</th>(.*?)</tr>", text).group(1)
+    assert row == "<td>0</td><td>0</td>", row

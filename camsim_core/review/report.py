@@ -162,6 +162,9 @@ def _cell(v):
 
 
 def _value(v):
+    """A parameter's value as one text whatever its type: 0 and 0.0 both "0" (they are one value)."""
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        return html.escape(f"{v:g}")
     return html.escape(v if isinstance(v, str) else json.dumps(v))
 
 
