@@ -35,7 +35,17 @@ SPACES = ("spectral", "sensor", "monitor-linear", "monitor")
 
 
 def check_tile(tile, n_sensors, name="mosaic"):
-    """Validate a mosaic tile: an integer array (n, m) or (n, m, tiers) of 0-based sensor indices."""
+    """Validate a mosaic tile: an integer array (n, m) or (n, m, tiers) of 0-based sensor indices.
+
+    Examples
+    --------
+    >>> check_tile([[1, 0], [2, 1]], 3).tolist()
+    [[1, 0], [2, 1]]
+    >>> check_tile([[0, 3]], 3)
+    Traceback (most recent call last):
+    ...
+    camsim_core.errors.ParameterError: mosaic: tile names sensor index 3, but the camera has 3 sensors (valid indices 0..2)
+    """
     if tile is None:
         return None
     t = np.asarray(tile)
@@ -104,6 +114,18 @@ class CameraImage:
     history : tuple of str
         Names of the stages applied so far, in order.
     name : str
+
+    Examples
+    --------
+    An unquantized 2 x 2 image of three sensor planes:
+
+    >>> import numpy as np
+    >>> w = np.arange(400.0, 701.0, 10.0)
+    >>> image = CameraImage(np.ones((2, 2, 3)), w, np.ones((3, w.size)), ("R", "G", "B"), name="flat")
+    >>> image.shape, image.n_sensors, image.full_scale
+    ((2, 2), 3, None)
+    >>> image.then("noise", noise_sigma=2.0).history
+    ('noise',)
     """
 
     data: np.ndarray
@@ -218,18 +240,29 @@ class CameraImage:
         title = f"{kind} {self.name!r}" if self.name else kind
         try:
             rgb = self.preview(PREVIEW_SIDE)
-        except Exception:  # an image no preview can show (e.g. an unusual shape): the table alone
+        except (ValueError, TypeError, IndexError):  # an image no preview can show (empty, 4-D): the table alone
             rgb = None
         return summary_html(title, rgb, self._summary_rows())
 
     def _repr_png_(self):
-        """PNG bytes of the sRGB preview (at most 256 px on its long side), for Jupyter."""
+        """PNG bytes of the sRGB preview (at most 256 px on its long side), for Jupyter; None when there is none."""
         from .preview import PREVIEW_SIDE, png_bytes
 
-        return png_bytes(self.preview(PREVIEW_SIDE))
+        try:
+            return png_bytes(self.preview(PREVIEW_SIDE))
+        except (ValueError, TypeError, IndexError):  # empty or of a shape no preview shows
+            return None
 
     def metadata(self):
-        """JSON-serializable description (everything but the data)."""
+        """JSON-serializable description (everything but the data).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> meta = CameraImage(np.zeros((2, 2)), np.array([550.0]), bits=10).metadata()
+        >>> meta["shape"], meta["bits"], meta["wavelengths"]
+        ([2, 2], 10, [550.0])
+        """
         return {
             "name": self.name,
             "shape": list(self.data.shape),
@@ -270,6 +303,16 @@ def subtract_black_level(image):
     (after subtraction, per sensor class when the pedestal is) at which the
     raw clipped, ``full_scale - black_level`` (``None`` when unquantized).
     An image without a pedestal is returned as it is.
+
+    Examples
+    --------
+    A 10-bit raw with a pedestal of 64: a dark pixel 2 DN below it stays negative.
+
+    >>> import numpy as np
+    >>> raw = CameraImage(np.array([[62.0, 1023.0]]), np.array([550.0]), bits=10, black_level=64.0)
+    >>> out = subtract_black_level(raw)
+    >>> out.data.tolist(), out.black_level, out.extra["saturation"]
+    ([[-2.0, 959.0]], 0.0, 959.0)
     """
     black = np.asarray(image.black_level, float)
     if not np.any(black):
@@ -292,7 +335,16 @@ def subtract_black_level(image):
 
 
 def image_from_scene(scene):
-    """The scene as the pipeline's first image: spectral planes with the scene's geometry."""
+    """The scene as the pipeline's first image: spectral planes with the scene's geometry.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from camsim_core.scene import Scene
+    >>> image = image_from_scene(Scene(np.ones((2, 3, 31)), np.arange(400.0, 701.0, 10.0), name="flat"))
+    >>> image.space, image.data.shape, image.history
+    ('spectral', (2, 3, 31), ('scene',))
+    """
     return CameraImage(
         data=scene.data,
         wavelengths=scene.wavelengths,

@@ -149,3 +149,11 @@ def test_notebook_tour_example_runs(tmp_path):
         picture = _png((tmp_path / f"{name}.png").read_bytes())
         assert max(picture.shape[:2]) <= 256 and picture.std() > 0
         assert "data:image/png;base64," in (tmp_path / f"{name}.html").read_text(encoding="utf-8")
+
+
+def test_empty_and_unshowable_images_still_describe_themselves():
+    empty = Scene(np.zeros((0, 3, W.size)), W, name="empty")
+    assert "0 x 3 pixels x 31 bands" in empty._repr_html_() and "base64" not in empty._repr_html_()
+    assert empty._repr_png_() is None  # Jupyter then shows the text instead
+    odd = CameraImage(np.ones((3, 4, 5, 6)), np.array([]), space="sensor", name="4-D")
+    assert "3 x 4 x 5 x 6" in odd._repr_html_() and odd._repr_png_() is None

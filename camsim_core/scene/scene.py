@@ -14,7 +14,14 @@ __all__ = ["Scene", "check_radiance", "radiance_dtype", "scale_light", "WAVELENG
 
 
 def radiance_dtype(data):
-    """The floating dtype a radiance cube keeps: float32 and float64 stay as they are, anything else becomes float64."""
+    """The floating dtype a radiance cube keeps: float32 and float64 stay as they are, anything else becomes float64.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> radiance_dtype(np.zeros(2, np.float32)), radiance_dtype(np.zeros(2, np.uint16))
+    (dtype('float32'), dtype('float64'))
+    """
     dt = np.asarray(data).dtype
     return dt if dt in (np.float32, np.float64) else np.dtype(np.float64)
 
@@ -27,6 +34,16 @@ def check_radiance(data, where, negative="error"):
     A float32 cube stays float32 (half the memory of float64, and every
     stage runs in it); other types become float64. The checks run on
     blocks of rows, so they need no full-size temporary.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> check_radiance(np.ones((1, 2, 3), np.uint8), "scene").dtype
+    dtype('float64')
+    >>> check_radiance(np.full((1, 1, 2), -1.0), "scene.npz")
+    Traceback (most recent call last):
+    ...
+    camsim_core.errors.ParameterError: scene.npz: radiance has 2 negative values (min -1); expected non-negative (load with negative='clip' to clip them)
     """
     a = np.asarray(data)
     a = a.astype(radiance_dtype(a), copy=False)
@@ -89,6 +106,15 @@ class Scene:
     notices : tuple of str
         What a reader had to assume (default geometry, unknown units): shown
         to the user beside the scene, never a silent guess.
+
+    Examples
+    --------
+    A 2 x 3 pixel scene of 31 bands (400-700 nm), as flat as can be:
+
+    >>> import numpy as np
+    >>> scene = Scene(np.ones((2, 3, 31)), np.arange(400.0, 701.0, 10.0), distance=2.0, name="flat")
+    >>> scene.shape, scene.distance, scene.data.flags.writeable
+    ((2, 3, 31), 2.0, False)
     """
 
     data: np.ndarray
@@ -189,17 +215,25 @@ class Scene:
         """
         from ..preview import PREVIEW_SIDE, summary_html
 
-        return summary_html(f"Scene {self.name!r}" if self.name else "Scene", self.preview(PREVIEW_SIDE),
-                            self._summary_rows())
+        rgb = self.preview(PREVIEW_SIDE) if self.data.size else None  # an empty scene: the table alone
+        return summary_html(f"Scene {self.name!r}" if self.name else "Scene", rgb, self._summary_rows())
 
     def _repr_png_(self):
-        """PNG bytes of the sRGB preview (at most 256 px on its long side), for Jupyter."""
+        """PNG bytes of the sRGB preview (at most 256 px on its long side), for Jupyter; None for an empty scene."""
         from ..preview import PREVIEW_SIDE, png_bytes
 
-        return png_bytes(self.preview(PREVIEW_SIDE))
+        return png_bytes(self.preview(PREVIEW_SIDE)) if self.data.size else None
 
     def describe(self):
-        """A dict of the scene's metadata (for ``camsim info`` and the explorer)."""
+        """A dict of the scene's metadata (for ``camsim info`` and the explorer).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> info = Scene(np.ones((2, 3, 31)), np.arange(400.0, 701.0, 10.0), name="flat").describe()
+        >>> info["size_px"], info["wavelengths_nm"]
+        ('2 x 3', '400-700 (31 samples)')
+        """
         h, w, n = self.data.shape
         return {
             "name": self.name,
@@ -229,6 +263,14 @@ def scale_light(scene, factor):
     shot noise, read noise and dark current do not scale with the light.
     ``factor`` is dimensionless, in ``LIGHT_RANGE``; 1 returns ``scene``
     itself. The radiance keeps its dtype.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> scene = Scene(np.ones((1, 1, 2)), [500, 600], name="flat")
+    >>> dusk = scale_light(scene, 0.01)
+    >>> dusk.data.ravel().tolist(), dusk.name
+    ([0.01, 0.01], 'flat x0.01 light')
     """
     import dataclasses
 
