@@ -335,7 +335,7 @@ def test_full_colour_cameras_run(state, camera, mosaic):
     assert state.result.raw.mosaiced is False and "demosaic" in state.result.skipped
     view.update()  # the raw view's title says what it shows: every sensor at every pixel, no mosaic
     assert "no mosaic" in view.labels["raw"].object and "Raw mosaic" not in view.labels["raw"].object
-    assert "not needed" in view.labels["demosaiced"].object
+    assert "no demosaicing" in view.labels["demosaiced"].object
     state.param.update(camera="kodak-dcs200-ir", mosaic="GRBG")
     view.update()
     assert "Raw mosaic" in view.labels["raw"].object
