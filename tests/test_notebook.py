@@ -119,13 +119,26 @@ def test_explorer_opens_for_a_scene_and_camera():
     pn = pytest.importorskip("panel")
     from camsim_explorer import show
 
-    page = show(scene="macbeth", camera="kodak-dcs200", exposure=0.05)
-    assert isinstance(page, (pn.viewable.Viewable, pn.template.base.BaseTemplate))
-    assert hasattr(page, "_repr_mimebundle_")  # what Jupyter calls to show it inline
-    state = page.state
+    view = show(scene="macbeth", camera="kodak-dcs200", exposure=0.05)
+    assert isinstance(view, pn.viewable.Viewable) and hasattr(view, "_repr_mimebundle_")  # what Jupyter shows
+    state = view.state
     assert (state.scene, state.camera, state.exposure) == ("macbeth", "kodak-dcs200", 0.05)
     assert state.shown["camera"] == "kodak-dcs200" and state.shown["scene"] == "macbeth"
     assert state.result is not None and not state.message
+    assert view.page.state is state and isinstance(view.page, pn.template.base.BaseTemplate)
+    root = view.get_root()  # the Bokeh models a notebook cell receives, built without a browser
+    assert type(root).__name__ == "Row" and len(root.children) == 2
+    # later changes on the state are computed for the view
+    state.camera = "cie1931"
+    assert state.shown["camera"] == "cie1931"
+
+
+def test_explorer_whole_page_on_request():
+    pn = pytest.importorskip("panel")
+    from camsim_explorer import show
+
+    page = show(scene="macbeth", camera="kodak-dcs200", page=True)
+    assert isinstance(page, pn.template.base.BaseTemplate) and page.state.shown["camera"] == "kodak-dcs200"
 
 
 def test_explorer_refuses_unknown_names():
