@@ -12,7 +12,10 @@ MODULES = ["camsim_core.io.guard", "camsim_core.io.matv5", "camsim_core.io.hdf5"
            "camsim_core.scene.scene", "camsim_core.scene.preview", "camsim_core.image", "camsim_core.preview",
            "camsim_core.spectra", "camsim_core.errors", "camsim_core.screen", "camsim_core.simulation.mosaic",
            "camsim_core.optics.diffraction", "camsim_core.metrics.snr", "camsim_core.scene.synthetic",
-           "camsim_core.metrics.viewing", "camsim_core.rendering.xyz", "camsim_core.monitor"]
+           "camsim_core.metrics.viewing", "camsim_core.rendering.xyz", "camsim_core.monitor",
+           "camsim_core.scene.load", "camsim_core.camera.load", "camsim_core.simulation.pipeline",
+           "camsim_core.simulation.exposure", "camsim_core.demosaicing", "camsim_core.io.raw",
+           "camsim_core.rendering", "camsim_core.rendering.ideal"]
 
 
 @pytest.mark.parametrize("name", MODULES)

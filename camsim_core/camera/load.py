@@ -312,7 +312,17 @@ def camera_preset(name, **changes):
 
 
 def load_camera(name_or_path):
-    """A :class:`Camera` from a shipped name (``CAMERA_NAMES``, or ``mixture-ALPHA``) or a ``.Scam`` path."""
+    """A :class:`Camera` from a shipped name (``CAMERA_NAMES``, or ``mixture-ALPHA``) or a ``.Scam`` path.
+
+    Examples
+    --------
+    The Kodak DCS-200: an 8-bit camera with a Bayer mosaic (G R / B G; R, G, B = 0, 1, 2):
+
+    >>> import numpy as np
+    >>> camera = load_camera("kodak-dcs200")
+    >>> camera.bits, np.asarray(camera.mosaic).tolist()
+    (8, [[1, 0], [2, 1]])
+    """
     if isinstance(name_or_path, Camera):
         return name_or_path
     key = str(name_or_path)

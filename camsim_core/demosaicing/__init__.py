@@ -195,6 +195,16 @@ def demosaic(image, method="bilinear", **options):
         by the method's :func:`reach`), or ``None`` when none clipped; it
         holds for these data only (``extra["clipped_of"]`` is the data
         array it describes).
+
+    Examples
+    --------
+    A uniform raw demosaics to uniform planes:
+
+    >>> import numpy as np
+    >>> from camsim_core.io.raw import raw_from_array
+    >>> full = demosaic(raw_from_array(np.full((4, 4), 100, np.uint8), "GRBG"))
+    >>> full.data.shape, float(full.data.min()), float(full.data.max())
+    ((4, 4, 3), 100.0, 100.0)
     """
     key = str(method).lower()
     if key not in METHODS:

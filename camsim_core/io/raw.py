@@ -66,6 +66,13 @@ def raw_from_array(array, tile, *, sensitivities=None, wavelengths=None, sensor_
         Any of ``exposure`` (s), ``f_stop``, ``distance`` (m),
         ``angular_resolution`` (x, y px/deg), ``gain`` (digital units per unit
         of sensitivities @ radiance), ``noise_sigma`` (DU), ``name``, ``unit``, ``extra``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> raw = raw_from_array(np.zeros((4, 6), np.uint16), "RGGB", black_level=64)
+    >>> raw.shape, raw.bits, raw.tile.tolist(), raw.black_level
+    ((4, 6), 16, [[0, 1], [1, 2]], 64.0)
     """
     unknown = sorted(set(metadata) - set(_FIELDS))
     if unknown:

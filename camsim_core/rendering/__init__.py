@@ -92,6 +92,15 @@ def render(image, monitor, method="baseline", illuminant=None, dimensions=None, 
         The linear settings are made and gamma corrected by chunks of pixels and not kept (a
         12-megapixel image's would be 137 MiB more);
         ``monitor.frame_buffer_to_linear(data)`` gives them back to 8-bit steps.
+
+    Examples
+    --------
+    >>> import camsim_core as cs
+    >>> scene, camera = cs.load_scene("macbeth"), cs.load_camera("kodak-dcs200")
+    >>> raw = cs.simulate(scene, camera, exposure=cs.auto_exposure(scene, camera))
+    >>> shown = render(cs.demosaic(raw), "simtoolbox-test")
+    >>> shown.space, shown.data.shape, bool(shown.data.min() >= 0 and shown.data.max() <= 255)
+    ('monitor', (150, 222, 3), True)
     """
     key = str(method).lower()
     if key not in METHODS:

@@ -140,6 +140,14 @@ def ideal_image(scene, camera, monitor, *, reference="scene", white=None, scale=
         and distance; ``extra["reference"]`` says which reference it is,
         ``extra["display_scale"]`` and ``extra["scale_source"]`` how it was
         normalised.
+
+    Examples
+    --------
+    On the camera's pixel grid, the same size as its rendered images:
+
+    >>> ideal = ideal_image("macbeth", "kodak-dcs200", "simtoolbox-test")
+    >>> ideal.space, ideal.data.shape
+    ('monitor', (150, 222, 3))
     """
     from ..monitor import load_monitor
     from ..scene import load_scene

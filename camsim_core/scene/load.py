@@ -47,6 +47,12 @@ def load_scene(name_or_path, *, negative="error"):
     Shipped scenes are read once per process and shared (they are read-only).
     ``negative="clip"`` clips negative radiances with a warning instead of
     refusing them.
+
+    Examples
+    --------
+    >>> scene = load_scene("macbeth")
+    >>> scene.shape, scene.name, scene.wavelengths[0], scene.wavelengths[-1]
+    ((84, 124, 31), 'macbeth', 400.0, 700.0)
     """
     if isinstance(name_or_path, Scene):
         return name_or_path
