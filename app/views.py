@@ -17,7 +17,6 @@ import json
 import zlib
 from functools import lru_cache, partial
 
-import colour
 import numpy as np
 import panel as pn
 from bokeh.events import RangesUpdate, SelectionGeometry, Tap
@@ -28,6 +27,8 @@ from bokeh.plotting import figure
 from panel.models.markup import HTML as HTMLModel
 
 from camsim_core.cache import fingerprint
+from camsim_core.preview import sensor_colors
+from camsim_core.scene.preview import scene_srgb as preview_srgb
 from camsim_core.screen import block_size, to_screen
 from camsim_core.simulation import tile_index_map
 
@@ -114,47 +115,13 @@ def when_page_ready(fn):
 
 
 # -- display helpers (pure functions over arrays) ----------------------------
-_NAMED = {"R": (1.0, 0.0, 0.0), "G": (0.0, 1.0, 0.0), "B": (0.0, 0.0, 1.0)}
-
-
-def sensor_colors(sensitivities, wavelengths, names=None):
-    """(K, 3) display colour of each sensor, max 1.
-
-    Sensors named R, G, B get pure red, green, blue. Otherwise the sRGB
-    chromaticity of the curve seen as a spectrum: the curve's CIE 1931 XYZ (sum of the colour-matching functions weighted
-    by the sensitivity), to linear sRGB, negative parts clipped; a
-    colourless result (a curve outside the visible range) is grey.
-    """
-    sens = np.atleast_2d(np.asarray(sensitivities, float))
-    if names is not None and len(names) == len(sens) and all(n in _NAMED for n in names):
-        return np.array([_NAMED[n] for n in names])
-    wls = np.asarray(wavelengths, float)
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    bar = np.stack([np.interp(wls, cmfs.wavelengths, cmfs.values[:, i], left=0, right=0) for i in range(3)], axis=1)
-    out = []
-    for row in sens:
-        xyz = row @ bar
-        rgb = np.clip(colour.XYZ_to_sRGB(xyz / max(xyz[1], 1e-12) * 0.5, apply_cctf_encoding=False), 0, None)
-        out.append(rgb / rgb.max() if rgb.max() > 0 else np.full(3, 0.6))
-    return np.array(out)
-
-
 def scene_srgb(scene):
-    """sRGB (H, W, 3) in [0, 1] of a scene: CIE 1931 XYZ of its radiance, brightest 1 % clipped.
-
-    Cached per scene object (scenes are shared read-only).
-    """
+    """sRGB (H, W, 3) in [0, 1] of a scene (the engine's :func:`camsim_core.scene.preview.scene_srgb`: CIE 1931
+    XYZ of its radiance, brightest 1 % clipped), cached per scene object (scenes are shared read-only)."""
     hit = _SCENE_RGB.get(id(scene))
     if hit is not None and hit[0] is scene:
         return hit[1]
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    wls = np.asarray(scene.wavelengths, float)
-    bar = np.stack([np.interp(wls, cmfs.wavelengths, cmfs.values[:, i], left=0, right=0) for i in range(3)], axis=1)
-    h, w, n = scene.data.shape
-    xyz = (scene.data.reshape(-1, n) @ bar).reshape(h, w, 3)
-    scale = np.percentile(xyz[..., 1], 99) or 1.0
-    rgb = colour.XYZ_to_sRGB(xyz / scale, apply_cctf_encoding=True)
-    rgb = np.clip(np.nan_to_num(rgb), 0, 1)
+    rgb = preview_srgb(scene)
     if len(_SCENE_RGB) > 32:
         _SCENE_RGB.clear()
     _SCENE_RGB[id(scene)] = (scene, rgb)
