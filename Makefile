@@ -14,11 +14,15 @@ $(VENV)/.installed: pyproject.toml
 
 install: $(VENV)/.installed
 
-# Chromium for the browser tests comes from Debian (Playwright must not download its own).
+# Chromium for the browser tests comes from Debian (Playwright must not download its own); so does exiftool,
+# which reads camsim's DNGs back as a user's raw tools do.
 chromium:
 	@command -v chromium >/dev/null 2>&1 || { \
 	  echo "installing Debian's chromium for the browser tests"; \
 	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null; }
+	@command -v exiftool >/dev/null 2>&1 || { \
+	  echo "installing Debian's exiftool for the DNG tests"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libimage-exiftool-perl >/dev/null; }
 
 # One BLAS thread per process: the explorer's matrices are small, and threads only contend.
 serve: install
