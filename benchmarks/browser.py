@@ -15,7 +15,11 @@ engine time of the same change (reported by the page: the wall time of
 the pipeline's run) and the ratio of the median to the goal.
 
 Actions: noise, exposure, rendering method, demosaicing method, distance,
-scene change, first complete render after navigation (page load to stats and
+scene change, camera switch (to human cones, and to the electron-level
+phone-1.4um), chart pick (the slanted edge, fitted to the frame); on the
+Compare designs tab: pinning each of four cameras, a sweep of the four over
+six noise values, and a link that restores the four pinned designs (from
+navigation to all four shown); first complete render after navigation (page load to stats and
 images shown; each in a new browser context, so nothing is cached): pages opened
 ``FIRST_PAUSE_S`` apart, and pages opened back to back (the server then may not
 have the next page built in advance; the table counts the pages that were).
@@ -33,6 +37,7 @@ import os
 import statistics
 import sys
 import time
+import urllib.parse
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -42,7 +47,9 @@ from app_helpers import CHROMIUM_ARGS, chromium_path, explorer_server  # noqa: E
 
 #: Goals (median ms) per action.
 GOALS = {"noise": 150, "exposure": 150, "render method": 150, "demosaic method": 150, "distance": 300,
-         "scene change": None, "first render": 1500, "first, back to back": None}
+         "scene change": None, "camera switch": 500, "camera: phone-1.4um": 500, "chart pick": 500,
+         "pin": 1000, "sweep 4 x 6": 10000, "link, 4 pinned": 3000,
+         "first render": 1500, "first, back to back": None}
 
 # JS: find an element through shadow roots (Panel renders panes inside them).
 _DEEP = """
@@ -89,7 +96,10 @@ _ACT = "([el, value, key]) => {" + _DEEP + """
     const check = () => {
       if (done || t0 === null) return;
       const s = camsimStatus();
-      if (!s || !s.params || s.params[key] !== value || s.computing) return;
+      // a picked chart is shown as the chart with the options it was fitted with ("slanted-edge:distance=3,...")
+      const shown = s && s.params ? s.params[key] : undefined;
+      const same = shown === value || (typeof shown === 'string' && shown.split(':')[0] === value);
+      if (!s || !same || s.computing) return;
       if (camsimStats() === before) return;
       done = true;
       observer.disconnect();
@@ -100,8 +110,16 @@ _ACT = "([el, value, key]) => {" + _DEEP + """
     t0 = performance.now();
     el.value = String(value);
     el.dispatchEvent(new Event('change', {bubbles: true}));
+    setTimeout(() => {  // a result that never comes: say what the page shows instead of waiting forever
+      if (done) return;
+      done = true;
+      observer.disconnect();
+      const s = camsimStatus();
+      resolve({error: `no result with ${key} = ${value} in ${ACT_TIMEOUT_MS} ms; the page shows ` +
+                      JSON.stringify(s && s.params && s.params[key]) + (s && s.computing ? ' (computing)' : '')});
+    }, ACT_TIMEOUT_MS);
   });
-}"""
+}""".replace("ACT_TIMEOUT_MS", "120000")
 
 # First render: from navigation start (the page's clock) to the first frame after the status reports a
 # result (not computing), checked every 5 ms by a timer in the page from its first script on (a timer makes
@@ -130,13 +148,116 @@ ACTIONS = [
     ("demosaic method", "demosaic_method", "w-demosaic", "select", ("freeman", "bilinear")),
     ("distance", "distance", "w-distance", "number", (3.0, 3.32)),
     ("scene change", "scene", "w-scene", "select", ("bfgb128", "cacaphony290")),
+    ("camera switch", "camera", "w-camera", "select", ("human-cones", "kodak-dcs200-ir")),
+    ("camera: phone-1.4um", "camera", "w-camera", "select", ("phone-1.4um", "kodak-dcs200-ir")),
+    ("chart pick", "scene", "w-scene", "select", ("slanted-edge", "cacaphony290")),
 ]
+
+# The Compare designs tab: click a button (found through shadow roots) and time, on the page's clock, until the
+# comparison's status (its JSON pane) holds what is wanted: ``pinned`` designs pinned and computed, or a sweep
+# of ``points`` points. A 10 ms timer checks (a timer makes no frames), then one animation frame.
+_COMPARE_STATUS = """
+function compareStatus() {
+  const host = camsimHost('camsim-compare-status');
+  const pre = host && (host.shadowRoot ? deep('pre', host.shadowRoot) : host.querySelector('pre'));
+  if (!pre) return null;
+  try { return JSON.parse(pre.textContent); } catch (e) { return null; }
+}
+function compareHas(s, want) {
+  if (!s || s.busy) return false;
+  if (want.pinned !== undefined && (s.pinned.length !== want.pinned || s.designs.length < want.pinned)) return false;
+  if (want.points !== undefined && !(s.sweep && s.sweep.points.length === want.points)) return false;
+  return true;
+}
+"""
+_COMPARE_ACT = "([button, want]) => {" + _DEEP + _COMPARE_STATUS + """
+  return new Promise(resolve => {
+    const host = deep('.' + button);
+    const t0 = performance.now();
+    (host.shadowRoot ? host.shadowRoot.querySelector('button') : host.querySelector('button')).click();
+    const timer = setInterval(() => {
+      if (!compareHas(compareStatus(), want)) {
+        if (performance.now() - t0 > 180000) { clearInterval(timer); resolve(JSON.stringify(compareStatus())); }
+        return;
+      }
+      clearInterval(timer);
+      requestAnimationFrame(() => resolve(performance.now() - t0));
+    }, 10);
+  });
+}"""
+# A link that restores pinned designs: from navigation start until the comparison shows them all.
+_LINK_INIT = "(() => {" + _DEEP + _COMPARE_STATUS + """
+  window.camsimLinked = (want) => new Promise(resolve => {
+    const timer = setInterval(() => {
+      if (!compareHas(compareStatus(), want)) {
+        if (performance.now() > 180000) { clearInterval(timer); resolve(JSON.stringify(compareStatus())); }
+        return;
+      }
+      clearInterval(timer);
+      requestAnimationFrame(() => resolve(performance.now()));
+    }, 10);
+  });
+})();"""
+#: The cameras pinned in turn (each the live design when pinned), then swept together.
+PIN_CAMERAS = ("human-cones", "cie1931", "stockman-sharpe", "kodak-dcs200")
+SWEEP_VALUES = ("0, 1, 2, 3, 4, 5", "0.5, 1.5, 2.5, 3.5, 4.5, 5.5")
+
+
+def _wait_status(page, key, value):
+    page.wait_for_function("([key, value]) => {" + _DEEP + """
+      const s = camsimStatus(); return s && s.params && s.params[key] === value && !s.computing; }""",
+                           arg=[key, value], timeout=180000)
+
+
+def _ms(value, what):
+    """A time the page measured, or the error naming what it showed instead (a string)."""
+    if isinstance(value, str):
+        raise RuntimeError(f"{what}: not done within 180 s; the comparison shows {value[:400]}")
+    return value
+
+
+def compare_rows(browser, page, repeats):
+    """Pin, a 4 x 6 sweep and a link restoring the pinned designs: (label, ms list) rows."""
+    page.locator(".bk-tab").filter(has_text="Compare designs").first.click()
+    pins = []
+    for i, camera in enumerate(PIN_CAMERAS):
+        page.locator(".w-camera select").first.select_option(camera)
+        _wait_status(page, "camera", camera)
+        box = page.locator(".w-pin-name input").first
+        box.fill(f"d{i + 1} {camera}")
+        box.press("Enter")
+        pins.append(_ms(page.evaluate(_COMPARE_ACT, ["w-pin", {"pinned": i + 1}]), f"pin {camera}"))
+    sweeps = []
+    for values in SWEEP_VALUES[:max(1, min(2, repeats))]:
+        box = page.locator(".w-sweep-values input").first
+        box.fill(values)
+        box.press("Enter")
+        sweeps.append(_ms(page.evaluate(_COMPARE_ACT, ["w-sweep-run", {"points": 4 * 6}]), "sweep"))
+    page.wait_for_function("() => window.location.search.includes('pinned=')", timeout=60000)
+    # the link as a user shares it after pinning, without the sweep (the row times the designs' restoration)
+    parts = urllib.parse.urlsplit(page.evaluate("window.location.href"))
+    query = [(k, v) for k, v in urllib.parse.parse_qsl(parts.query) if k != "sweep"]
+    link = urllib.parse.urlunsplit(parts._replace(query=urllib.parse.urlencode(query)))
+    links = []
+    for _ in range(max(1, min(3, repeats))):
+        other = browser.new_page(viewport={"width": 1366, "height": 768})
+        other.set_default_timeout(180000)
+        try:
+            other.add_init_script(_LINK_INIT)
+            other.goto(link)
+            other.locator(".bk-tab").filter(has_text="Compare designs").first.click()
+            links.append(_ms(other.evaluate("window.camsimLinked({pinned: %d})" % len(PIN_CAMERAS)), "link"))
+        finally:
+            other.close()
+    return [("pin", pins), ("sweep 4 x 6", sweeps), ("link, 4 pinned", links)]
 
 
 def time_action(page, key, css, kind, value):
     """ms from the widget change to the frame showing the result, and the engine ms reported."""
     el = _element(page, css, kind).element_handle()
     done = page.evaluate(_ACT, [el, value, key])
+    if "error" in done:
+        raise RuntimeError(done["error"])
     return done["ms"], done["engine"]
 
 
@@ -190,6 +311,8 @@ def run(url, repeats):
                 times.append(ms)
                 engines.append(engine or 0.0)
             rows.append((label, times, engines))
+        for label, times in compare_rows(browser, page, repeats):
+            rows.append((label, times, [0.0]))
         page.close()
         browser.close()
     for label, runs in (("first render", firsts), ("first, back to back", back_to_back)):
