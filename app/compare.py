@@ -36,6 +36,7 @@ import numpy as np
 import panel as pn
 from holoviews import streams
 
+from camsim_core.cache import Pipeline
 from camsim_core.errors import CamsimError
 from camsim_core.review.design import (DESIGN_DEFAULTS, MAX_PINNED, QUALITY_LABELS, _SHARED,
                                        check_pinned, differing_parameters, evaluate_design, quality_measures,
@@ -378,19 +379,26 @@ class CompareView:
         self._computing = True
         self.progress.max, self.progress.value, self.progress.visible = len(missing), 0, True
         self.message.object = f"Computing {len(missing)} pinned design(s) on {md_text(self.state.scene)}..."
+        # what the live design's pipeline has computed (shared arrays, no copy): a design pinned as it is shown
+        # re-runs only the steps the page has not (S-CIELAB, the quality measures), not its whole simulation
+        # (a pin took 5-12 s, the whole pipeline again)
+        live = self.state.pipeline.snapshot() if self.state.result is not None and not self.state.computing else None
         if self._server_doc() is None:
-            self._compute(missing, scene, key, generation)
+            self._compute(missing, scene, key, generation, live)
         else:
-            threading.Thread(target=self._compute, args=(missing, scene, key, generation), daemon=True,
+            threading.Thread(target=self._compute, args=(missing, scene, key, generation, live), daemon=True,
                              name="camsim-compare").start()
 
-    def _compute(self, missing, scene, key, generation):
+    def _compute(self, missing, scene, key, generation, live=None):
+        pipeline = Pipeline()  # one per thread; its results are exactly a fresh run's (camsim_core.cache)
+        if live is not None:
+            pipeline.start_from(live)
         for i, p in enumerate(missing):
             if generation != self._generation:
                 return
             params = {**p["params"], **self._shared()}
             try:
-                result = evaluate_design(params, p["name"], scene=scene)
+                result = evaluate_design(params, p["name"], scene=scene, pipeline=pipeline)
                 self.store.put(key, params, result)
                 self.errors.pop(p["name"], None)
             except CamsimError as exc:
