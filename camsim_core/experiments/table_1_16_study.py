@@ -310,7 +310,9 @@ def run(task_list, folder, *, workers=2, scheduler=None, limit=None, progress=No
 
     bar = tqdm(total=len(pending), desc="table 1.16 study", unit="task", disable=None if progress is None else not progress)
     try:
-        if scheduler is None and not workers:
+        if not pending:
+            pass  # nothing to run: no cluster is started, no scheduler contacted
+        elif scheduler is None and not workers:
             for t in pending:
                 write(function(t))
                 bar.update(1)
