@@ -4,6 +4,7 @@ way physics says, and the study runs, resumes and reports. Small scene: macbeth 
 from __future__ import annotations
 
 import csv
+import functools
 import json
 
 import numpy as np
@@ -19,9 +20,14 @@ SMALL = "macbeth"
 
 
 def cells(**options):
-    """{(sensors, sigma): error} and the exposure of a bilinear mosaic run on the small scene (options override)."""
+    """{(sensors, sigma): error} and the first record of a bilinear mosaic run on the small scene (options override)."""
     options.setdefault("demosaic", "bilinear")
-    recs = mosaic.run(scenes=[SMALL], sigmas=[0, 5], **options)
+    return _cells(tuple(sorted(options.items())))
+
+
+@functools.lru_cache(maxsize=None)
+def _cells(options):
+    recs = mosaic.run(scenes=[SMALL], sigmas=[0, 5], **dict(options))
     return {(r["sensors"], r["sigma"]): r["error"] for r in recs}, recs[0]
 
 
@@ -186,3 +192,14 @@ def test_partial_task_is_rerun_and_dask_runs_unchanged(tmp_path):
     rows = study.load(tmp_path)
     assert sorted((r["task"], r["viewing"]) for r in rows) == sorted((t.key, v) for t in tasks for v in t.viewings)
     assert study.run(tasks, tmp_path, workers=2, processes=False, progress=False, function=fake_task)["ran"] == 0
+
+
+def test_nothing_pending_starts_no_cluster(tmp_path, monkeypatch):
+    from camsim_core.experiments import runner
+
+    tasks = study.tasks(scene=SMALL, fills=(0.5,), centers=(mosaic.CENTERS,), normalizations=("area",),
+                        demosaics=(("bilinear", None, None),), renderings=(("illuminant", None),), viewings=("camera",))
+    study.run(tasks, tmp_path, workers=0, progress=False, function=fake_task)
+    monkeypatch.setattr(runner, "local_cluster", lambda *a, **k: pytest.fail("a cluster started for nothing"))
+    info = study.run(tasks, tmp_path, workers=2, progress=False, function=fake_task)
+    assert (info["ran"], info["skipped"]) == (0, 1)
