@@ -61,7 +61,7 @@ PINNED = [{"name": IMG, "params": {"custom_tile": SVG, "distance": 10.0}},
           {"name": SCRIPT, "params": {"camera": "gaussian-3", "gaussian_centers": MDLINK}}]
 SWEEP = {"parameter": DETAILS, "values": [1, 2]}
 #: The tabs: (title, an element it shows, words in it).
-TABS = [("Scene", ".camsim-scene-meta table", "wavelengths_nm"), ("Camera", ".camsim-camera-info p", "sensors"),
+TABS = [("Scene", ".camsim-scene-meta table", "Wavelengths (nm)"), ("Camera", ".camsim-camera-info p", "sensors"),
         ("Image quality", ".camsim-quality p", "PSNR"), ("Compare designs", ".camsim-sweep-message p", "Pin designs"),
         ("Experiments", ".camsim-exp-message p", "Figure 1.14"), ("Optics & sensor", ".camsim-physical-table table",
                                                                   "f-number"),
