@@ -19,6 +19,8 @@ it switches itself off when that is not a terminal, unless ``progress=True``).
 
 from __future__ import annotations
 
+import contextlib
+
 import logging
 import os
 
@@ -26,7 +28,7 @@ from tqdm.auto import tqdm
 
 from ..errors import ParameterError
 
-__all__ = ["run_tasks", "local_cluster", "choose_workers", "MIN_CLUSTER_TASKS"]
+__all__ = ["run_tasks", "dask_client", "local_cluster", "choose_workers", "MIN_CLUSTER_TASKS"]
 
 #: Below this many tasks a local cluster does not pay: starting its worker
 #: processes (~1.5 s, each importing numpy, scipy and colour) costs more than
@@ -108,11 +110,26 @@ def run_tasks(function, configurations, *, workers=None, scheduler=None, process
                 bar.update(1)
         return results
 
-    from distributed import Client, as_completed
+    from distributed import as_completed
+
+    with dask_client(workers, scheduler, processes=processes) as client:
+        # pure=False: identical configurations are still separate tasks (no key collisions across sweeps)
+        futures = client.map(function, configurations, pure=False)
+        with _bar(len(futures), progress, desc) as bar:
+            for _ in as_completed(futures):
+                bar.update(1)
+        return client.gather(futures)
+
+
+@contextlib.contextmanager
+def dask_client(workers=None, scheduler=None, *, processes=True):
+    """A Dask client: of a local cluster of ``workers`` (closed on exit), or of the scheduler at address
+    ``scheduler`` (``workers`` then ignored); a ParameterError naming ``scheduler`` when it cannot be reached."""
+    from distributed import Client
 
     cluster = None
     if scheduler is None:
-        cluster = local_cluster(workers, processes=processes)
+        cluster = local_cluster(int(workers), processes=processes)
         client = Client(cluster)
     else:
         try:
@@ -120,12 +137,7 @@ def run_tasks(function, configurations, *, workers=None, scheduler=None, process
         except (OSError, TimeoutError) as exc:
             raise ParameterError("scheduler", f"cannot reach a Dask scheduler at {scheduler!r}: {exc}") from None
     try:
-        # pure=False: identical configurations are still separate tasks (no key collisions across sweeps)
-        futures = client.map(function, configurations, pure=False)
-        with _bar(len(futures), progress, desc) as bar:
-            for _ in as_completed(futures):
-                bar.update(1)
-        return client.gather(futures)
+        yield client
     finally:
         client.close()
         if cluster is not None:

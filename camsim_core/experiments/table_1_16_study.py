@@ -283,7 +283,7 @@ def run(task_list, folder, *, workers=2, scheduler=None, limit=None, progress=No
     """
     from tqdm.auto import tqdm
 
-    from .runner import local_cluster
+    from .runner import dask_client
 
     if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int) or limit < 1):
         raise ParameterError("limit", f"must be a whole number >= 1, got {limit!r}")
@@ -317,27 +317,14 @@ def run(task_list, folder, *, workers=2, scheduler=None, limit=None, progress=No
                 write(function(t))
                 bar.update(1)
         else:
-            from distributed import Client, as_completed
+            from distributed import as_completed
 
-            cluster = None
-            if scheduler is None:
-                cluster = local_cluster(int(workers), processes=processes)
-                client = Client(cluster)
-            else:
-                try:
-                    client = Client(str(scheduler), timeout="10s")
-                except (OSError, TimeoutError) as exc:
-                    raise ParameterError("scheduler", f"cannot reach a Dask scheduler at {scheduler!r}: {exc}") from None
-            try:
+            with dask_client(workers, scheduler, processes=processes) as client:
                 futures = client.map(function, pending, pure=False)
                 for future in as_completed(futures):
                     write(future.result())
                     bar.update(1)
                     future.release()
-            finally:
-                client.close()
-                if cluster is not None:
-                    cluster.close()
     finally:
         bar.close()
     return {"total": len(task_list), "skipped": len(task_list) - len([t for t in task_list if t.key not in done]),
