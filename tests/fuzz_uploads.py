@@ -98,15 +98,20 @@ def _replace(d, path, value):
     d[path[-1]] = value
 
 
+def mutate_leaf(rng, v):
+    """Replace one leaf (a field at any depth) of the variables ``v`` with a bad value, in place."""
+    leaves = list(_leaves(v))
+    path = leaves[rng.integers(len(leaves))]
+    node = v
+    for k in path:
+        node = node[k]
+    _replace(v, path, _bad_value(rng, node if not isinstance(node, dict) else 1.0))
+
+
 def _mutated_variables(rng):
     v = _variables(rng)
     if rng.random() < 0.7:
-        leaves = list(_leaves(v))
-        path = leaves[rng.integers(len(leaves))]
-        node = v
-        for k in path:
-            node = node[k]
-        _replace(v, path, _bad_value(rng, node if not isinstance(node, dict) else 1.0))
+        mutate_leaf(rng, v)
     return v
 
 

@@ -281,7 +281,7 @@ def test_a_spatial_spectral_illuminant_is_not_kept_and_the_notice_says_so(tmp_pa
 
 def test_mutated_isetcam_layouts_load_or_are_refused_by_name(tmp_path, photons):
     """The new layouts through the fuzz's upload and path readers: every case loads or is refused naming the file."""
-    from fuzz_uploads import _bad_value, _leaves, _replace, run_case
+    from fuzz_uploads import mutate_leaf, run_case
 
     rng = np.random.default_rng(39)
     outcomes = []
@@ -297,12 +297,7 @@ def test_mutated_isetcam_layouts_load_or_are_refused_by_name(tmp_path, photons):
         else:
             v, _ = _basis_file(photons[:2, :3])
             v["illuminant"] = _illuminant_layout(["illuminantModernize", "ieSaveMultiSpectralImage"][kind - 1])[0]
-        leaves = list(_leaves(v))
-        path = leaves[rng.integers(len(leaves))]
-        node = v
-        for k in path:
-            node = node[k]
-        _replace(v, path, _bad_value(rng, node if not isinstance(node, dict) else 1.0))
+        mutate_leaf(rng, v)
         buf = tmp_path / "m.mat"
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
