@@ -85,6 +85,26 @@ def _patched_ihdr(data, width=None, height=None, depth=None, colour=None):
     return _png([(b"IHDR", body)] + chunks[1:])
 
 
+def _tiff16_rgb(a):
+    """A 16-bit RGB TIFF of ``a`` (H, W, 3) uint16 (tifffile writes it; Pillow cannot)."""
+    import tifffile
+
+    buf = io.BytesIO()
+    tifffile.imwrite(buf, a, photometric="rgb")
+    return buf.getvalue()
+
+
+def _orientation_exif(value):
+    from PIL import Image
+
+    exif = Image.Exif()
+    exif[0x0112] = value  # Orientation
+    return exif.tobytes()
+
+
+_ORIENTED = _orientation_exif(6)
+
+
 def _png16_rgb(a):
     """A 16-bit RGB PNG of ``a`` (H, W, 3) uint16 (Pillow writes 16 bits for grey only)."""
     h, w, _ = a.shape
@@ -158,6 +178,8 @@ def make_sources():
             "rgb8.png": _image_bytes(rgb),
             "grey16.png": _image_bytes(rgb16[:, :, 0]),
             "rgb16.png": _png16_rgb(rgb16),
+            "rgb16.tif": _tiff16_rgb(rgb16),  # 16-bit colour TIFF: read by tifffile, not Pillow
+            "portrait.jpg": _image_bytes(rgb, "JPEG", exif=_ORIENTED),  # EXIF orientation 6: turned upright
             "palette.png": _image_bytes(rgb, mode="P"),
             "rgb8.jpg": _image_bytes(rgb, "JPEG", quality=90),
             "grey8.jpg": _image_bytes(rgb[:, :, 1], "JPEG"),
