@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import CamsimError, FileFormatError, ParameterError
 from ..io.files import check_regular, read_regular
 from ..spectra import resample
-from ._intake import MAX_SCENE_VALUES
+from ._intake import MAX_SCENE_VALUES, SceneNotice
 from .scene import Scene
 from .synthetic import DEFAULT_WAVELENGTHS, _illuminant, scale_to_luminance
 
@@ -150,10 +150,12 @@ def opened_image(path, shown=None, kind="image"):
     shown = Path(path).name if shown is None else shown
     check_regular(path, shown)
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
             warnings.simplefilter("error", Image.DecompressionBombWarning)
             with Image.open(path) as im:
                 yield im
+        _pass_on(caught, path, shown)
     except CamsimError:
         raise
     except (Image.DecompressionBombError, Image.DecompressionBombWarning) as exc:
@@ -164,6 +166,18 @@ def opened_image(path, shown=None, kind="image"):
     except PILLOW_ERRORS as exc:
         raise FileFormatError(shown, f"not a readable {kind} ({type(exc).__name__}: "
                                      f"{_without_path(exc, path, shown)})") from None
+
+
+def _pass_on(caught, path, shown):
+    """Warnings recorded while a file was opened and read, passed on: what Pillow said of a damaged file
+    ("Corrupt EXIF data", "Truncated File Read", a TIFF tag past the file's end) as a notice naming the file
+    (never the folder it was read from), every other warning as it was."""
+    for w in caught:
+        if issubclass(w.category, SceneNotice) or "PIL" not in Path(w.filename or "").parts:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        else:
+            warnings.warn(f"{shown}: looks damaged, read as far as Pillow could "
+                          f"({_without_path(w.message, path, shown)})", SceneNotice, stacklevel=4)
 
 
 def _sixteen_bit_colour(im):
