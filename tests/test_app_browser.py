@@ -523,8 +523,6 @@ def test_sensor_fields_of_an_electron_level_camera_from_the_sidebar(browser, pag
     page.wait_for(lambda s: s["params"]["camera"] == "kodak-dcs200-ir" and not s["computing"])
     eventually(lambda: [_sensor_box(page, c).is_visible() for c in ("w-sensor-well", "w-sensor-pitch")] == [False, False])
     assert "digital units" in note.evaluate("e => (e.shadowRoot || e).textContent")
-    assert not any("NaN" in _sensor_box(page, c).input_value() for c in ("w-sensor-well", "w-sensor-pitch", "w-sensor-read")
-                   if _sensor_box(page, c).is_visible())
     page.shot("sensor-fields")
     # another camera starts from its own sheet
     page.select("w-camera", "phone-1.4um")
