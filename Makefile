@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 PORT   ?= 5006
 
-.PHONY: install chromium serve test bench clean
+.PHONY: install chromium serve test test-fast bench clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -28,8 +28,13 @@ chromium:
 serve: install
 	OPENBLAS_NUM_THREADS=1 $(VENV)/bin/camsim serve --port $(PORT)
 
+# Two workers (pytest-xdist), each test file on one of them: a file's server and browser are started once.
 test: install chromium
-	$(PY) -m pytest -q -rs
+	$(PY) -m pytest -q -rs -n 2 --dist loadfile
+
+# The development loop: the engine and the explorer's state and server, no browser (about a minute).
+test-fast: install
+	$(PY) -m pytest -q -rs -n 2 --dist loadfile tests/engine tests/app
 
 bench: install
 	for b in pipeline processing metrics explorer experiments measures review; do $(PY) benchmarks/$$b.py || exit 1; done

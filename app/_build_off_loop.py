@@ -18,7 +18,7 @@ claim of the document for the building thread (``state._thread_id_``) is
 handed to the loop's thread once the build is done. The replacement is
 installed only when Bokeh's method is the one it was written against (its
 source's digest, :data:`BOKEH_SOURCE_SHA256`); otherwise the server logs a
-warning and builds on the loop as before, and ``tests/test_build_off_loop.py``
+warning and builds on the loop as before, and ``tests/app/test_build_off_loop.py``
 fails, so an upgrade of Bokeh cannot switch it off unnoticed.
 
 Written by hand: neither Bokeh nor Panel offers to build documents off the

@@ -15,7 +15,7 @@ shared by every session, so this is what a class of thirty waits on.
   asks the design for the widget's modifiers (resolving its stylesheet files
   on disk) on every change of any property, and uses them only when the change
   is to ``stylesheets``. :func:`design_only_for_stylesheets` asks only then;
-  the properties sent are the same (``tests/test_panel_tuning.py`` checks both
+  the properties sent are the same (``tests/app/test_panel_tuning.py`` checks both
   cases against Panel's own method). ~6 ms a move.
 * **Debug records nobody reads.** Panel sets its ``panel`` logger to DEBUG and
   filters in its handler (at WARNING), so every event builds debug log records

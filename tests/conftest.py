@@ -1,4 +1,10 @@
-"""Fixtures shared across the suite (areas keep their own fixtures in their test files)."""
+"""Fixtures shared across the suite: tests/engine (camsim_core alone), tests/app (the explorer's state and
+server, no browser) and tests/browser (Debian's Chromium through Playwright).
+
+This folder has no ``__init__.py``, so pytest puts it on ``sys.path`` when it loads this file: the helpers
+beside it (``app_helpers``, ``ws_session``, ``upload_helpers``, ...) import by name from every area. Areas keep
+their own fixtures in their test files.
+"""
 
 import dataclasses
 
@@ -33,7 +39,8 @@ def rng():
 @pytest.fixture(scope="module")
 def browser():
     """Debian's Chromium driven by Playwright, one per test module (files that need other launch options
-    define their own ``browser``)."""
+    define their own ``browser``). Not one per run: Playwright's sync API holds an asyncio loop in the
+    thread while it runs, and later tests of the same worker use asyncio themselves."""
     from app_helpers import CHROMIUM_ARGS, chromium_path
 
     try:

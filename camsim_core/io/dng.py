@@ -27,7 +27,7 @@ raw converter needs (Adobe, *Digital Negative Specification* 1.4.0.0):
   the file without a warning.
 
 Written with tifffile (there is no maintained Python DNG writer on PyPI);
-validated by LibRaw itself (``tests/test_dng.py``): rawpy opens the file,
+validated by LibRaw itself (``tests/engine/test_dng.py``): rawpy opens the file,
 reports the pattern and levels, and demosaics it.
 """
 

@@ -171,7 +171,7 @@ def _xyz_to_lab(xyz, white):
 
     colour-science's general routine (domain scaling, xyY round trip of the
     white, float64 copies of every intermediate) costs ~5x this on a full
-    frame; ``tests/test_metrics.py`` checks the two agree. Works in the
+    frame; ``tests/engine/test_metrics.py`` checks the two agree. Works in the
     input's float dtype (float32 stays float32). The cube roots are numpy's
     (vectorized); the per-pixel arithmetic around them is two compiled
     passes (:func:`_ratio_rows`, :func:`_lab_rows`): numpy's elementwise

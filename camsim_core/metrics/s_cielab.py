@@ -39,7 +39,7 @@ time on a megapixel image); a band's filtered channels are read where the
 inverse transforms left them and go to L*a*b* in one compiled pass and
 numpy's cube root, by blocks of 64 K pixels (:class:`_Band`); and a band's transforms of half a megapixel or more run on the
 machine's cores. This is the fast path the explorer uses
-on every slider move; ``tests/test_scielab.py`` checks it against a direct
+on every slider move; ``tests/engine/test_scielab.py`` checks it against a direct
 2-D convolution within 1e-9.
 
 Samples per degree

@@ -22,7 +22,7 @@ implementation, Burns's ``sfrmat``, is MATLAB). The steps follow ISO
    (width 1/oversampling) and the two-point difference (same width), each a
    sinc(f / oversampling). A point-sampled Gaussian-blurred edge then gives
    exp(-2 pi^2 sigma^2 f^2) within 0.005 up to Nyquist (sigma 0.5-2 px,
-   5-20 degrees, 128 x 128 pixels; tests/test_sharpness.py).
+   5-20 degrees, 128 x 128 pixels; tests/engine/test_sharpness.py).
 
 Frequencies are in cycles per pixel *perpendicular to the edge*; Nyquist is 0.5.
 """

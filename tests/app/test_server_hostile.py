@@ -7,7 +7,7 @@
 * Values that raised in the server (a 5,000-digit link value, a 100,000-character viewing, ``spd:1e-300``,
   NaN in the parameters file, a NUL in a file name) get a message naming the field.
 
-The browser side of these is in ``tests/test_server_hostile_browser.py``.
+The browser side of these is in ``tests/browser/test_server_hostile_browser.py``.
 """
 
 import asyncio

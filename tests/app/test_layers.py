@@ -18,7 +18,7 @@ import pytest
 
 import camsim_core
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 ENGINE = Path(camsim_core.__file__).resolve().parent
 #: Top-level modules the engine must never load.
 GUI = ("panel", "bokeh", "holoviews", "camsim_explorer", "app")

@@ -392,11 +392,7 @@ def test_auto_exposure_says_what_it_aims_at(state):
 
 
 def test_views_refit_to_a_new_image_size_and_reshape_only_for_a_new_aspect_ratio(state):
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).parent))
-    from app_helpers import shows_whole_image
+    from app_helpers import shows_whole_image  # tests/ is on sys.path (tests/conftest.py)
 
     view = ResultsView(state)
     start = [fig.aspect_ratio for fig in view.figures.values()]

@@ -25,7 +25,7 @@ from camsim_core.errors import ParameterError
 from camsim_core.image import CameraImage
 from camsim_core.scene import Scene
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 W = np.arange(400.0, 701.0, 10.0)
 
 

@@ -3,7 +3,7 @@
 A page's script can change anything the browser holds: the upload widget's limit, the size its pieces
 claim, the address Panel reads parameters from. The server's limits must hold whatever it does, and a
 value that used to raise in the server gets a message naming the field. HTTP and unit checks of the same
-items are in ``tests/test_server_hostile.py``.
+items are in ``tests/app/test_server_hostile.py``.
 """
 
 import pytest

@@ -32,7 +32,7 @@ import pytest
 
 pytestmark = pytest.mark.slow
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 #: What the build reads: the project file, the readme it names, the packages' folders.
 SOURCES = ("pyproject.toml", "README.md", "camsim_core", "app", "assets")
 SKIP = shutil.ignore_patterns("__pycache__", "*.pyc", "*.egg-info")

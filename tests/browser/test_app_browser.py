@@ -1,5 +1,6 @@
 """The explorer in a real browser: Playwright drives the system Chromium
 against ``camsim serve`` started on 127.0.0.1. Screenshots go to ``test-artifacts/``.
+How the server gives pages (built in advance, links, two at once) is in ``test_page_serving_browser.py``.
 """
 
 import time
@@ -9,9 +10,8 @@ import pytest
 
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
-from app_helpers import (ARTIFACTS, FIGURES_JS, IMAGE_VIEWS, POLL, Page, background_share, eventually, explorer_server,
-                         figures, loading_count, server_log, settled_shot, shot_until, shot_until_changed, shows_whole_image,
-                         stable_boxes, wait_for_log, wait_until)
+from app_helpers import (FIGURES_JS, IMAGE_VIEWS, POLL, Page, background_share, eventually, figures, settled_shot,
+                         shot_until, shot_until_changed, shows_whole_image, stable_boxes, wait_until)
 
 pytestmark = pytest.mark.browser
 
@@ -21,89 +21,6 @@ def page(browser, server):
     pg = Page(browser, server)
     yield pg
     pg.close()
-
-
-def test_a_first_result_landing_while_the_page_renders_is_shown(browser):
-    """The first result arrives just after the browser pulled the page, before it reports ready
-    (a slow first computation, e.g. a cold start): it must still reach the screen."""
-    launcher = ARTIFACTS.parent / "tests" / "serve_result_after_pull.py"
-    with explorer_server(launcher=launcher) as url:
-        pg = Page(browser, url)  # waits for the status pane to hold a dE
-        try:
-            s = pg.status()
-            assert s["mean_de"] > 0
-            assert f"{s['mean_de']:.2f}" in pg.text(".camsim-stats")
-            assert loading_count(pg) == 0
-            for key in ("raw", "rendered"):  # the canvases draw the data that arrived
-                shot_until(pg, f".camsim-{key}-plot", lambda png: background_share(png) < 0.5,
-                           f"the {key} view is not blank", name=f"first-result-while-rendering-{key}")
-        finally:
-            pg.close()
-
-
-def test_page_loads_without_console_errors(page):
-    s = page.status()
-    page.shot("explorer-loaded")
-    assert page.errors() == []
-    assert s["params"]["scene"] == "cacaphony290" and s["params"]["camera"] == "kodak-dcs200-ir"
-    assert s["shape"] == [233, 372]  # cacaphony290 through the DCS-200 at 3.32 m
-    assert s["mean_de"] > 0 and s["median_de"] > 0
-    assert page.alert_text() == ""
-    assert "mean dE" in page.text(".camsim-stats")
-    scripts = page.page.evaluate("performance.getEntriesByType('resource').map(r => r.name)")
-    assert any("bokeh.min.js" in name for name in scripts)  # the list is the page's resources
-    assert not [name for name in scripts if "mathjax" in name.lower()]  # 1.8 MB the page does not need
-    # the icon is in the page: Chromium fetched a linked one again after every change of the address (one
-    # request to the server's event loop per move, made by the browser itself, so not among the page's)
-    icons = page.page.evaluate("[...document.querySelectorAll('link[rel~=icon]')].map(l => l.href)")
-    assert icons and all(href.startswith("data:image/svg+xml,") for href in icons)
-
-
-SPARE_BUILT = "a spare page for / built"
-
-
-def _png(data):
-    from io import BytesIO
-
-    from PIL import Image
-
-    return np.asarray(Image.open(BytesIO(data)).convert("RGB"), dtype=float)
-
-
-def test_a_page_built_in_advance_is_the_page_a_request_builds(browser, server):
-    """The plain address gets a session the server built while idle; a link with parameters gets one built for
-    it. Both show the same result, pixel for pixel; the prepared one loads its styles from this server, answers
-    changes, and the server prepares the next one once the page has connected."""
-    built_before = wait_for_log(server, SPARE_BUILT)
-    spare = Page(browser, server)
-    try:
-        assert spare.session_made() == "spare"
-        assert spare.errors() == []  # a stylesheet from elsewhere would be a failed load here
-        names = spare.page.evaluate("performance.getEntriesByType('resource').map(r => r.name)")
-        foreign = [n for n in names if not n.startswith(server.rstrip("/")) and not n.startswith("data:")]
-        assert foreign == []
-        linked = Page(browser, server + "?scene=cacaphony290")  # the default scene, named in the link
-        try:
-            assert linked.session_made() == "built"
-            assert linked.status()["params"] == spare.status()["params"]
-            assert linked.status()["mean_de"] == spare.status()["mean_de"]
-            for key in ("raw", "rendered", "de"):  # once both canvases have drawn the data that arrived
-                def same(key=key):
-                    a = _png(settled_shot(spare, f".camsim-{key}-plot", name=f"spare-page-{key}"))
-                    b = _png(settled_shot(linked, f".camsim-{key}-plot"))
-                    assert a.shape == b.shape and np.abs(a - b).mean() < 0.5, key
-
-                eventually(same, timeout=30)
-        finally:
-            linked.close()
-        before = spare.status()["mean_de"]
-        spare.type_number("w-noise", 6)
-        s = spare.wait_for(lambda s: s["params"]["noise_sigma"] == 6 and not s.get("computing"))
-        assert s["mean_de"] > before
-        wait_for_log(server, SPARE_BUILT, built_before + 1)  # the next visitor's page
-    finally:
-        spare.close()
-    assert "Traceback" not in server_log(server)
 
 
 def test_raising_noise_raises_the_mean_de_shown(page):
@@ -161,43 +78,6 @@ def test_a_tile_naming_a_missing_sensor_shows_a_message_and_keeps_the_last_resul
     page.select("w-mosaic", "RGGB")  # a good choice clears the message
     page.wait_for(lambda s: s["tile"] == [[0, 1], [1, 2]])
     page.page.locator(".camsim-alert").first.wait_for(state="hidden", timeout=30000)
-
-
-def test_a_shared_url_restores_the_same_parameters(browser, page, server):
-    page.type_number("w-noise", 3)
-    page.select("w-render", "illuminant")
-    page.select("w-mosaic", "RGGB")
-    first = page.wait_for(lambda s: s["params"]["noise_sigma"] == 3 and s["params"]["render_method"] == "illuminant"
-                          and s["params"]["mosaic"] == "RGGB")
-    page.page.wait_for_function("() => window.location.search.includes('mosaic=RGGB')", timeout=30000)
-    url = page.page.url
-    assert "noise_sigma=3" in url and "render_method=illuminant" in url and "mosaic=RGGB" in url
-    second = Page(browser, url)
-    try:
-        restored = second.wait_for(lambda s: s["params"]["mosaic"] == "RGGB")
-        second.shot("shared-url")
-        assert restored["params"] == first["params"]
-        assert restored["mean_de"] == first["mean_de"] and restored["rendered_hash"] == first["rendered_hash"]
-    finally:
-        second.close()
-
-
-def test_two_pages_at_once_keep_separate_states(browser, server):
-    a, b = Page(browser, server), Page(browser, server)
-    try:
-        a.type_number("w-noise", 8)
-        sa = a.wait_for(lambda s: s["params"]["noise_sigma"] == 8)
-        b.select("w-render", "illuminant")
-        sb = b.wait_for(lambda s: s["params"]["render_method"] == "illuminant")
-        sa2 = a.status()
-        a.shot("session-a")
-        b.shot("session-b")
-        assert sb["params"]["noise_sigma"] == 0 and sa2["params"]["render_method"] == "baseline"
-        assert sa2["params"]["noise_sigma"] == 8 and sa2["mean_de"] == sa["mean_de"]
-        assert sa["raw_hash"] != sb["raw_hash"]
-    finally:
-        a.close()
-        b.close()
 
 
 def test_experiments_tab_runs_a_small_sweep(page):
@@ -280,31 +160,6 @@ def test_histogram_and_de_scale_follow_the_data(page):
 
 
 # -- the page never lies --------------------------------------------------------
-def test_a_change_during_a_long_computation_ends_with_the_last_change(page):
-    page.type_number("w-distance", 0.5)  # a long computation (about 20 x the pixels)
-    # the panes show it running (the busy mark comes once it has run 250 ms) before the next change is made
-    running = wait_until(lambda: (loading_count(page), bool(page.status().get("computing"))), 60,
-                         "the long computation shows as running", until=lambda r: r[0] > 0 or r[1])
-    page.type_number("w-noise", 7)  # made while it runs
-    seen_loading, seen_computing = running[0] > 0, running[1]
-    deadline = 120
-    t0 = time.monotonic()
-    while time.monotonic() - t0 < deadline:
-        s = page.status()
-        seen_computing |= bool(s.get("computing"))
-        seen_loading |= loading_count(page) > 0
-        if s["params"]["distance"] == 0.5 and s["params"]["noise_sigma"] == 7 and not s["computing"]:
-            break
-        time.sleep(POLL)
-    final = page.status()
-    assert final["params"]["distance"] == 0.5 and final["params"]["noise_sigma"] == 7 and not final["computing"]
-    # The panes' loading state is what the user sees; the status pane's "computing" flag may be
-    # sent only with the result on a fast machine, so it is recorded but not required.
-    assert seen_loading, f"no loading state seen (status computing seen: {seen_computing})"
-    assert loading_count(page) == 0
-    assert page.alert_text() == ""
-
-
 REFUSED_VALUES = [
     ("w-noise", 80, "noise sigma", "0"),
     ("w-exposure", 100, "exposure", "0.1"),
@@ -567,47 +422,3 @@ def test_save_and_share_downloads_what_the_page_shows_and_loads_parameters(page,
     page.page.locator(".w-json-upload input[type=file]").first.set_input_files(str(tmp_path / "bad.json"))
     page.wait_for_alert("not JSON")
     assert page.params()["noise_sigma"] == 3.0
-
-
-RAW_SOURCE_JS = """() => {
-  for (const m of Bokeh.documents[0]._all_models.values()) {
-    if (m.name === 'camsim-raw-figure') {
-      const d = m.renderers.find(g => g.data_source && g.data_source.data.dw).data_source.data;
-      const img = d.image[0];
-      return {shape: img.shape ? Array.from(img.shape) : [img.length, img[0].length],
-              x: d.x[0], y: d.y[0], dw: d.dw[0], dh: d.dh[0], x_range: [m.x_range.start, m.x_range.end]};
-    }
-  }
-  return null;
-}"""
-
-
-def test_a_result_larger_than_the_screen_is_sent_averaged_and_zooming_in_fetches_detail(browser):
-    """With views of at most 120 pixels a side, the default 233 x 372 raw arrives as 4 x 4 block means over the
-    whole image; wheel-zooming into the raw view brings the region in view in more detail, placed where it lies."""
-    with explorer_server(extra_args=["--max-view-side", "120"]) as url:
-        pg = Page(browser, url)
-        try:
-            whole = pg.page.evaluate(RAW_SOURCE_JS)
-            assert max(whole["shape"]) <= 120 and (whole["dw"], whole["dh"]) == (372, 233)
-            assert whole["dw"] / whole["shape"][1] == pytest.approx(4, rel=0.02)  # 4 image pixels a view pixel
-            for key in ("raw", "rendered"):  # once the canvas has drawn the data that arrived
-                shot_until(pg, f".camsim-{key}-plot", lambda png: background_share(png) < 0.5,
-                           f"the averaged {key} view is not mostly blank", name=f"averaged-{key}")
-            box = pg.page.locator(".camsim-raw-plot").first.bounding_box()
-            pg.page.mouse.move(box["x"] + box["width"] * 0.4, box["y"] + box["height"] * 0.5)
-            for _ in range(3):  # about three times closer: ~120 of the 372 columns in view
-                start = pg.page.evaluate(RAW_SOURCE_JS)["x_range"]
-                pg.page.mouse.wheel(0, -250)
-                wait_until(lambda: pg.page.evaluate(RAW_SOURCE_JS)["x_range"], 30, "the wheel zooms the raw view in",
-                           until=lambda r: r[1] - r[0] < start[1] - start[0])
-            near = wait_until(lambda: pg.page.evaluate(RAW_SOURCE_JS), 30, "detail arrives after zooming in",
-                              until=lambda near: near["dw"] < 372 and near["dw"] / near["shape"][1] < 2)
-            span = near["x_range"][1] - near["x_range"][0]
-            print(f"zoomed in to {span:.0f} columns: {near}")
-            assert span < 240 and near["x"] <= near["x_range"][0] and near["x"] + near["dw"] >= near["x_range"][1]
-            shot_until(pg, ".camsim-raw-plot", lambda png: background_share(png) < 0.5,
-                       "the zoomed raw view is not mostly blank", name="zoomed-detail-raw")
-            assert pg.errors() == []
-        finally:
-            pg.close()
