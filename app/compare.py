@@ -38,7 +38,7 @@ from holoviews import streams
 
 from camsim_core.cache import Pipeline
 from camsim_core.errors import CamsimError
-from camsim_core.review.design import (DESIGN_DEFAULTS, MAX_PINNED, QUALITY_LABELS, _SHARED,
+from camsim_core.review.design import (DESIGN_DEFAULTS, MAX_NAME, MAX_PINNED, QUALITY_LABELS, _SHARED,
                                        check_pinned, differing_parameters, evaluate_design, quality_measures,
                                        result_from_pipeline)
 from camsim_core.review.difference import ab_difference
@@ -46,6 +46,7 @@ from camsim_core.review.report import DESIGN_COLOURS, design_colours, quality_ce
 from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
 
 from .safe_text import PlainText, html_text, md_text
+from .state import short_repr
 from .views import once
 
 hv.Store.set_current_backend("bokeh")
@@ -310,10 +311,14 @@ class CompareView:
             return False
         names = {p["name"] for p in pinned}
         base = (name or "").strip() or self.state.camera
+        if len(base) > MAX_NAME:  # refused, not cut: the box keeps the text for the user to shorten
+            self.message.object = (f"**Refused:** the name of a pinned design takes at most {MAX_NAME} characters "
+                                   f"(got {len(base)}).")
+            return False
         unique, k = base, 2
         while unique in names:
-            unique, k = f"{base} {k}", k + 1
-        entry = {"name": unique[:60], "params": _design_only(self.state.design_params())}
+            unique, k = f"{base[:MAX_NAME - 4]} {k}", k + 1
+        entry = {"name": unique, "params": _design_only(self.state.design_params())}
         self.message.object = ""
         self.name_input.value = ""
         self.state.pinned = pinned + [entry]
@@ -327,8 +332,9 @@ class CompareView:
         names = [p["name"] for p in self.state.pinned]
         if old not in names:
             return False
-        if not new or len(new) > 60 or (new in names and new != old):
-            self.message.object = f"**Refused:** a pinned design needs a unique, non-empty name (got {md_text(repr(new))})."
+        if not new or len(new) > MAX_NAME or (new in names and new != old):
+            self.message.object = (f"**Refused:** a pinned design needs a unique, non-empty name of at most {MAX_NAME} "
+                                   f"characters (got {md_text(short_repr(new, 40))}).")
             return False
         self.state.pinned = [dict(p, name=new) if p["name"] == old else p for p in self.state.pinned]
         self.rename_input.value = ""

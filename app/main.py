@@ -31,6 +31,7 @@ from camsim_core.scene.charts import CHART_NAMES, chart_defaults
 from . import _panel_tuning
 from . import state as state_module
 from .compare import compare_tab
+from .number_slider import NumberSlider
 from .physical import SensorControls
 from .quality import QualityView
 from .safe_text import md_text
@@ -295,9 +296,21 @@ def _bind(widget, state, name):
     return widget
 
 
+def _sensor_field_value(state, name):
+    """The value of the electron-level sensor's field ``name`` in force (None: a camera without such fields)."""
+    fields = state.sensor_fields()
+    return None if fields is None else float(f"{fields[name]:.6g}")
+
+
 def _number(cls, state, name, css, label, **kw):
     """A numeric widget without client-side limits (the state checks them and says why)."""
     return _bind(cls(name=label, value=getattr(state, name), css_classes=[css], sizing_mode="stretch_width", **kw),
+                 state, name)
+
+
+def _slider_number(state, name, css, label, start, end, step):
+    """A number box over a slider (:class:`NumberSlider`), linked to ``state.<name>`` as :func:`_number`."""
+    return _bind(NumberSlider(label=label, css=css, start=start, end=end, step=step, value=getattr(state, name)),
                  state, name)
 
 
@@ -363,8 +376,8 @@ def _controls(state, results):
     upload.param.watch(on_refused, "refused")
 
     camera = _select(state, "camera", "w-camera", "Camera preset")
-    alpha = _number(w.EditableFloatSlider, state, "alpha", "w-alpha", "Mixture alpha (0 cones, 1 DCS-200)",
-                    start=0.0, end=1.0, step=0.05)
+    alpha = _slider_number(state, "alpha", "w-alpha", "Mixture alpha (0 cones, 1 DCS-200)",
+                           start=0.0, end=1.0, step=0.05)
     centers = w.TextInput.from_param(state.param.gaussian_centers, name="Gaussian centres (nm)",
                                      css_classes=["w-centers"], sizing_mode="stretch_width")
     widths = w.TextInput.from_param(state.param.gaussian_widths, name="Gaussian widths (nm)",
@@ -376,21 +389,23 @@ def _controls(state, results):
     tile = w.TextInput.from_param(state.param.custom_tile, name="Custom tile (0-based; rows split by ';')",
                                   css_classes=["w-tile"], sizing_mode="stretch_width")
 
-    distance = _number(w.EditableFloatSlider, state, "distance", "w-distance", "Distance (m)",
-                       start=0.5, end=10.0, step=0.01)
+    distance = _slider_number(state, "distance", "w-distance", "Distance (m)",
+                            start=0.5, end=10.0, step=0.01)
     exposure = _number(w.FloatInput, state, "exposure", "w-exposure", "Exposure (s)", step=0.005, format="0.0000")
     light = _number(w.FloatInput, state, "light", "w-light", "Light level (x the scene's)", step=0.1, format="0.000",
                     description="A factor of the scene's own light, 0.001 to 1000: radiance and illuminant scaled")
     auto = w.Button(name="Auto exposure", css_classes=["w-auto"], button_type="primary", width=120,
                     description="Exposure putting the scene's brightest 0.5 % at 90 % of full scale")
     auto.on_click(lambda e: state.auto_expose())
-    f_stop = _number(w.EditableFloatSlider, state, "f_stop", "w-fstop", "f-stop", start=1.0, end=32.0, step=0.1)
-    noise = _number(w.EditableFloatSlider, state, "noise_sigma", "w-noise", "Noise sigma (digital units)",
-                    start=0.0, end=50.0, step=0.5)
+    f_stop = _slider_number(state, "f_stop", "w-fstop", "f-stop", start=1.0, end=32.0, step=0.1)
+    noise = _slider_number(state, "noise_sigma", "w-noise", "Noise sigma (digital units)",
+                           start=0.0, end=50.0, step=0.5)
     bits = w.Select(name="Bits of the raw (the display is 8-bit)", options=BITS_CHOICES, value=state.bits,
                     css_classes=["w-bits"], sizing_mode="stretch_width")
     bits.link(state, value="bits", bidirectional=True)
-    seed = _number(w.IntInput, state, "seed", "w-seed", "Noise seed")
+    # a float box: a whole number past 2**53 typed into Bokeh's integer box reached the server as nothing (no
+    # message, the text left standing); here it arrives as a number and the state refuses it by name
+    seed = _number(w.FloatInput, state, "seed", "w-seed", "Noise seed", step=1, format="0")
 
     demosaic = _select(state, "demosaic_method", "w-demosaic", "Demosaicing")
     render = _select(state, "render_method", "w-render", "Rendering")
@@ -465,8 +480,12 @@ def _controls(state, results):
     numbers = {"w-alpha": ("Mixture alpha", "alpha"), "w-distance": ("Distance (m)", "distance"),
                "w-exposure": ("Exposure (s)", "exposure"), "w-light": ("Light level", "light"),
                "w-fstop": ("f-stop", "f_stop"), "w-noise": ("Noise sigma", "noise_sigma"), "w-seed": ("Noise seed", "seed")}
-    typed = TypedTextWatch(fields={css: label for css, (label, _) in numbers.items()}, integer_fields=["w-seed"],
-                           values={css: partial(getattr, state, name) for css, (_, name) in numbers.items()},
+    values = {css: partial(getattr, state, name) for css, (_, name) in numbers.items()}
+    labels = {css: label for css, (label, _) in numbers.items()}
+    for name, (label, css) in SensorControls.LABELS.items():  # the electron-level sensor's boxes too
+        labels[css] = label
+        values[css] = partial(_sensor_field_value, state, name)
+    typed = TypedTextWatch(fields=labels, values=values,
                            css_classes=["w-typed-watch"], width=0, height=0, margin=0)
     typed.param.watch(lambda event: setattr(state, "message", typed.refused), "refused")
 
@@ -655,9 +674,11 @@ def create_app(scene=None):
         chart_refused = []  # why the link's chart was refused, quoted with the link's refusal
 
         def on_error(values):
+            # every refused parameter is named (a link holds at most the few dozen the page syncs), each value
+            # quoted to 40 characters
             shown = ", ".join(f"{k} {state_module.short_repr(v, 40)}" for k, v in values.items())
             why = f" ({chart_refused[0][:300]})" if chart_refused else ""
-            _tell(state, f"The link held parameters that were refused: {shown[:300]}{why}")
+            _tell(state, f"The link held parameters that were refused: {shown}{why}")
 
         too_long = _long_url_values(pn.state.location.search)
         if too_long:

@@ -543,12 +543,18 @@ class ExplorerState(param.Parameterized):
 
         Returns the value in force afterwards (for the widget to show).
         """
+        p = self.param[name]
+        whole = isinstance(p, param.Integer)
+        if whole and isinstance(value, float) and math.isfinite(value) and value.is_integer():
+            value = int(value)  # a whole number from a number box (which sends floats)
         try:
             setattr(self, name, value)
         except (ValueError, TypeError) as exc:
-            p = self.param[name]
             bounds = getattr(p, "bounds", None)
-            why = (f"must lie in {_range_text(bounds)}" if bounds is not None else str(exc).split(". ")[0])
+            if whole and isinstance(value, float) and math.isfinite(value):
+                why = "must be a whole number"
+            else:
+                why = (f"must lie in {_range_text(bounds)}" if bounds is not None else str(exc).split(". ")[0])
             self.message = f"Refused: {_LABELS.get(name, name)} {value!r} {why}; kept {getattr(self, name)!r}"
         return getattr(self, name)
 

@@ -33,7 +33,7 @@ __all__ = [
     "DESIGN_DEFAULTS", "DESIGN_PARAMETERS", "CAMERA_CHOICES", "MOSAIC_CHOICES", "RENDER_CHOICES",
     "ILLUMINANT_CHOICES", "METRIC_CHOICES", "GAUSSIAN_DEFAULTS", "DesignResult",
     "check_params", "camera_from_params", "processing_from_params", "scene_from_params",
-    "evaluate_design", "measures", "quality_measures", "QUALITY_LABELS", "QUALITY_DIGITS", "check_pinned", "MAX_PINNED", "read_design_file", "result_from_pipeline", "parse_numbers", "parse_tile", "differing_parameters", "parse_sensor", "sensor_text",
+    "evaluate_design", "measures", "quality_measures", "QUALITY_LABELS", "QUALITY_DIGITS", "check_pinned", "MAX_PINNED", "MAX_NAME", "read_design_file", "result_from_pipeline", "parse_numbers", "parse_tile", "differing_parameters", "parse_sensor", "sensor_text",
 ]
 
 
@@ -138,6 +138,8 @@ DESIGN_DEFAULTS = {k: v[0] for k, v in DESIGN_PARAMETERS.items()}
 _SHARED = ("scene", "light", "wavelength", "metric", "viewing")
 #: Pinned designs in one comparison.
 MAX_PINNED = 4
+#: The longest name of a pinned design (characters).
+MAX_NAME = 60
 
 
 #: Default bounds on text-described parameters (the explorer's server may set its own).
@@ -609,8 +611,9 @@ def check_pinned(pinned, where="pinned"):
         if not isinstance(entry, dict) or set(entry) - {"name", "params"} or not isinstance(entry.get("params"), dict):
             raise ParameterError(f"{where}[{i}]", "expected an object {name, params}")
         name = entry.get("name")
-        if not isinstance(name, str) or not name.strip() or len(name) > 60 or name in names:
-            raise ParameterError(f"{where}[{i}]: name", f"expected a unique, non-empty name of at most 60 characters, got {name!r}")
+        if not isinstance(name, str) or not name.strip() or len(name) > MAX_NAME or name in names:
+            raise ParameterError(f"{where}[{i}]: name",
+                                 f"expected a unique, non-empty name of at most {MAX_NAME} characters, got {name!r}")
         names.add(name)
         params = {k: v for k, v in entry["params"].items() if k not in _SHARED}
         full = check_params(params, f"{where}: {name}")
