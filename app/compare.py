@@ -46,6 +46,7 @@ from camsim_core.review.report import DESIGN_COLOURS, design_colours, quality_ce
 from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
 
 from .safe_text import PlainText, html_text, md_text
+from .shown import now
 from .state import short_repr
 from .views import once
 
@@ -178,7 +179,7 @@ class HistogramPlot:
 class CompareView:
     """Everything on the Compare designs tab, following one :class:`~camsim_explorer.state.ExplorerState`."""
 
-    def __init__(self, state, store=None):
+    def __init__(self, state, when_shown=now, store=None):
         self.state = state
         self.store = store or DesignStore()
         self.errors = {}  # pinned name -> message
@@ -195,8 +196,9 @@ class CompareView:
         self._built = False  # the plots are made when there is something to compare (a light page until then)
         self._build_widgets()
         state.param.watch(self._on_pinned, ["pinned"])
-        state.param.watch(lambda e: self.refresh(), ["scene", "viewing"])
-        state.param.watch(lambda e: self._request_update(), ["result", "metric"])
+        refresh, request_update = when_shown(self.refresh), when_shown(self._request_update)
+        state.param.watch(lambda e: refresh(), ["scene", "viewing"])
+        state.param.watch(lambda e: request_update(), ["result", "metric"])
         state.param.watch(self._on_sweep, ["sweep"])
         self._on_pinned()
         if state.sweep:
@@ -787,9 +789,10 @@ class CompareView:
         )
 
 
-def compare_tab(state):
-    """The Compare designs tab of one session (a :class:`CompareView` on ``state``)."""
-    view = CompareView(state)
+def compare_tab(state, when_shown=now):
+    """The Compare designs tab of one session (a :class:`CompareView` on ``state``); ``when_shown``: the tab's
+    gate (:class:`~camsim_explorer.shown.WhenShown`)."""
+    view = CompareView(state, when_shown)
     tab = view.panel()
     tab.compare = view
     return tab

@@ -33,6 +33,7 @@ from . import state as state_module
 from .compare import compare_tab
 from .number_slider import NumberSlider
 from .physical import SensorControls
+from .shown import WhenShown, now
 from .quality import QualityView
 from .safe_text import md_text
 from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, VIEW_PARAMETERS, ExplorerState, Runner
@@ -533,10 +534,10 @@ def _experiments_tab(state):
     return ExperimentsView(run).panel()
 
 
-def _physical_tab(state):
+def _physical_tab(state, when_shown):
     from .physical import PhysicalView
 
-    return PhysicalView(state).panel()
+    return PhysicalView(state, when_shown).panel()
 
 
 def _results_tab(state, views):
@@ -553,26 +554,28 @@ def _results_tab(state, views):
                      sizing_mode="stretch_width")
 
 
-def _scene_tab(state, views):
-    sv = views["scene"] = SceneView(state)
+def _scene_tab(state, views, when_shown):
+    sv = views["scene"] = SceneView(state, when_shown)
     return pn.Column(pn.Row(sv.wavelength, sv.clear), pn.Row(sv.rgb_pane, sv.plane_pane, sizing_mode="stretch_width"),
                      pn.Row(sv.spectrum_pane, sv.meta, sizing_mode="stretch_width"), sizing_mode="stretch_width")
 
 
-def _camera_tab(state, views):
-    cv = views["camera"] = CameraView(state)
+def _camera_tab(state, views, when_shown):
+    cv = views["camera"] = CameraView(state, when_shown)
     return pn.Column(cv.info, pn.Row(cv.curves, cv.tile), sizing_mode="stretch_width")
 
 
-#: The tabs, in order: (title, builder(state, views) -> a Panel object). Add a tab with one line.
+#: The tabs, in order: (title, builder(state, views, when_shown) -> a Panel object). ``when_shown`` is the
+#: tab's :class:`WhenShown` gate: views following the design update through it (at once while the tab is
+#: shown, when it is next shown otherwise). Add a tab with one line.
 TABS = [
-    ("Results", _results_tab),
+    ("Results", lambda state, views, when_shown: _results_tab(state, views)),
     ("Scene", _scene_tab),
     ("Camera", _camera_tab),
-    ("Image quality", lambda state, views: QualityView(state).panel()),
-    ("Compare designs", lambda state, views: compare_tab(state)),
-    ("Experiments", lambda state, views: _experiments_tab(state)),
-    ("Optics & sensor", lambda state, views: _physical_tab(state)),
+    ("Image quality", lambda state, views, when_shown: QualityView(state, when_shown).panel()),
+    ("Compare designs", lambda state, views, when_shown: compare_tab(state, when_shown)),
+    ("Experiments", lambda state, views, when_shown: _experiments_tab(state)),
+    ("Optics & sensor", lambda state, views, when_shown: _physical_tab(state, when_shown)),
 ]
 
 
@@ -581,15 +584,23 @@ def _lazy_tabs(state, views):
     so its first render does not wait for plots nobody has looked at yet."""
     holders = [pn.Column(sizing_mode="stretch_width", css_classes=["camsim-tab"]) for _ in TABS]
     tabs = pn.Tabs(*[(title, holder) for (title, _), holder in zip(TABS, holders)],
-                   css_classes=["camsim-tabs"], dynamic=False, sizing_mode="stretch_width",
+                   css_classes=["camsim-tabs"], dynamic=True, sizing_mode="stretch_width",
                    stylesheets=[_TAB_TITLES_WRAP])
     built = set()
+    # the Results tab's views always follow (the status pane and the headline numbers live there)
+    gates = [now] + [WhenShown(shown=False) for _ in TABS[1:]]
 
     def show(index):
-        if index in built or not 0 <= index < len(TABS):
+        if not 0 <= index < len(TABS):
             return
-        built.add(index)
-        holders[index].objects = [TABS[index][1](state, views)]
+        for i, gate in enumerate(gates):
+            if gate is not now and i != index:
+                gate.show(False)
+        if index not in built:
+            built.add(index)
+            holders[index].objects = [TABS[index][1](state, views, gates[index])]
+        if gates[index] is not now:
+            gates[index].show(True)  # what changed while it was hidden, brought up to date
 
     tabs.param.watch(lambda event: show(event.new), "active")
     show(tabs.active)

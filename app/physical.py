@@ -22,6 +22,7 @@ from camsim_core.optics import cutoff_frequency, diffraction_mtf
 from camsim_core.simulation.electrons import photon_transfer, system_gain
 
 from .safe_text import md_text
+from .shown import now
 
 __all__ = ["PhysicalView", "SensorControls", "parameter_table", "mtf_curves"]
 
@@ -63,14 +64,15 @@ def mtf_curves(f_number, pitch_m, n=200):
 class PhysicalView:
     """Optics & sensor tab: parameters, diffraction MTF at the current f-number, photon transfer."""
 
-    def __init__(self, state):
+    def __init__(self, state, when_shown=now):
         self.state = state
         self.table = pn.pane.Markdown("", css_classes=["camsim-physical-table"], width=380)
         self.mtf = pn.pane.HoloViews(hv.Curve([]), css_classes=["camsim-mtf"], linked_axes=False)
         self.ptc = pn.pane.HoloViews(hv.Curve([]), css_classes=["camsim-ptc"], linked_axes=False)
         self.note = pn.pane.Markdown("", css_classes=["camsim-ptc-note"])
         self._ptc_key = None
-        state.param.watch(lambda e: self.update(), ["result"])
+        update = when_shown(self.update)
+        state.param.watch(lambda e: update(), ["result"])
         self.update()
 
     def camera(self):

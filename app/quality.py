@@ -18,6 +18,7 @@ from camsim_core.errors import CamsimError
 from camsim_core.metrics.report import default_measures, measure_images
 
 from .safe_text import md_text
+from .shown import now
 
 __all__ = ["QualityView", "measures_for", "channel_colours", "CHANNEL_COLOURS"]
 
@@ -83,7 +84,7 @@ def _color_table(color):
 class QualityView:
     """MTF curve, SNR table, patch dE table and similarity line, following the state's result."""
 
-    def __init__(self, state):
+    def __init__(self, state, when_shown=now):
         self.state = state
         self.report = {}
         self.mtf_plot = pn.pane.HoloViews(_mtf_plot({}), linked_axes=False)
@@ -91,7 +92,8 @@ class QualityView:
         # Panel (1.9) pass its layout parameters to the Bokeh figure, which refuses ``design`` (the tab broke)
         self.mtf = pn.Column(self.mtf_plot, css_classes=["camsim-mtf"], visible=False, margin=0)
         self.text = pn.pane.Markdown("", css_classes=["camsim-quality"], sizing_mode="stretch_width")
-        state.param.watch(lambda e: self.update(), ["result"])
+        update = when_shown(self.update)
+        state.param.watch(lambda e: update(), ["result"])
         self.update()
 
     def update(self):

@@ -34,6 +34,7 @@ from camsim_core.simulation import tile_index_map
 
 from . import state as state_module
 from .safe_text import html_text, md_text
+from .shown import now
 from .state import exposure_warnings, mean_level
 
 
@@ -1003,7 +1004,8 @@ class SceneView:
     COLORS = Category10[10]
     UNIT = "W/sr/m² per band"
 
-    def __init__(self, state):
+    def __init__(self, state, when_shown=now):
+        """``when_shown``: the tab's gate (:class:`~camsim_explorer.shown.WhenShown`): updates wait while hidden."""
         self.state = state
         self.shape = (2, 2)
         self.x_range, self.y_range = Range1d(0, 2), Range1d(0, 2)
@@ -1065,7 +1067,8 @@ class SceneView:
                                                     css_classes=["w-wavelength"], width=280)
         self.wavelength.param.watch(lambda e: setattr(state, "wavelength", float(e.new)), "value")
         self._scene = None
-        state.param.watch(lambda e: self.update(), ["scene", "wavelength"])
+        update = when_shown(self.update)
+        state.param.watch(lambda e: update(), ["scene", "wavelength"])
         self.update()
 
     def scene(self):
@@ -1169,7 +1172,7 @@ class SceneView:
 class CameraView:
     """Sensor curves and the mosaic tile of the camera shown; redrawn only when those change."""
 
-    def __init__(self, state):
+    def __init__(self, state, when_shown=now):
         self.state = state
         self._key = None
         self.curve_source = ColumnDataSource(dict(xs=[], ys=[], color=[], label=[]))
@@ -1195,7 +1198,8 @@ class CameraView:
                                 css_classes=["camsim-sensors"], sizing_mode="stretch_width")
         self.tile = pn.Column(self.tile_label, pn.pane.Bokeh(tile), css_classes=["camsim-tile"], width=280)
         self.info = pn.pane.Markdown("", css_classes=["camsim-camera-info"], sizing_mode="stretch_width")
-        state.param.watch(lambda e: self.update(), ["result"])
+        update = when_shown(self.update)
+        state.param.watch(lambda e: update(), ["result"])
         self.update()
 
     def update(self):

@@ -1,0 +1,99 @@
+"""The tab-order walk: every tab opened before and after each scene and camera change, every view current.
+
+A student clicks through the tabs in any order and changes the scene or the
+camera from whichever tab is open. After each change every tab must show the
+result of the new design, whichever tab was open when it happened and
+whether or not the tab had been built before. Each tab is checked against
+the status pane (the result shown) by a fact it prints:
+
+- Results: the status pane's parameters are the design chosen, with a dE;
+- Scene: the scene's name;
+- Camera: the camera's name and the size of the image the status pane holds;
+- Image quality: the mean dE it quotes is the status pane's;
+- Optics & sensor: the exposure it lists is the status pane's;
+- Compare designs and Experiments: their message (built, no error).
+
+A screenshot of the Image quality tab for each chart goes to
+``test-artifacts/walk-quality-CHART-CAMERA.png``.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from app_helpers import Page, eventually, server_log
+
+pytestmark = pytest.mark.browser
+
+TABS = ("Results", "Scene", "Camera", "Image quality", "Compare designs", "Experiments", "Optics & sensor")
+#: The changes, in order: (select box, value). Each is made with another tab open.
+CHANGES = [("w-scene", "macbeth"), ("w-camera", "gaussian-3"), ("w-scene", "slanted-edge"), ("w-camera", "imx174"),
+           ("w-scene", "cacaphony290"), ("w-camera", "kodak-dcs200-ir")]
+CHARTS = ("macbeth", "slanted-edge", "zone-plate", "stripes")
+
+MARKDOWN_JS = ("e => { const r = e.shadowRoot || e; "
+               "return (r.querySelector('.markdown') || r.querySelector('div') || e).innerText; }")
+
+
+def _pane_text(page, css):
+    loc = page.page.locator(css).first
+    return loc.evaluate(MARKDOWN_JS) if loc.count() else ""
+
+
+def _open(page, title):
+    page.page.locator(".camsim-tabs .bk-tab").filter(has_text=title).first.click()
+
+
+def _check_tab(page, title, want):
+    """The tab ``title`` (open) shows the result of the design ``want`` ({scene, camera})."""
+    s = page.wait_for(lambda s: not s.get("computing") and s.get("mean_de") is not None
+                      and s["params"]["camera"] == want["camera"]
+                      and s["params"]["scene"].partition(":")[0] == want["scene"])
+    rows, cols = s["shape"]
+
+    def check():
+        if title == "Scene":
+            text = _pane_text(page, ".camsim-scene-meta")
+            assert f"Name\t{want['scene']}" in text, text[:200]
+        elif title == "Camera":
+            text = _pane_text(page, ".camsim-camera-info")
+            assert text.startswith(want["camera"] + " ·"), text[:200]
+            assert f"{rows} x {cols}" in text or f"{cols} x {rows}" in text, (text[:200], s["shape"])
+        elif title == "Image quality":
+            text = _pane_text(page, ".camsim-quality")
+            assert f"mean dE*ab {s['mean_de']:.2f}" in text, (text[-200:], s["mean_de"])
+        elif title == "Optics & sensor":
+            text = _pane_text(page, ".camsim-physical-table")
+            assert f"exposure\t{s['params']['exposure']:.6g}\ts" in text, (text[-120:], s["params"]["exposure"])
+        elif title == "Compare designs":
+            assert "Pin designs" in _pane_text(page, ".camsim-sweep-message")
+        elif title == "Experiments":
+            assert "Figure 1.14" in _pane_text(page, ".camsim-exp-message")
+
+    eventually(check, timeout=60)
+
+
+def test_every_tab_shows_the_design_chosen_whatever_tab_was_open_and_in_any_order(browser, server):
+    page = Page(browser, server)
+    try:
+        want = {"scene": "cacaphony290", "camera": "kodak-dcs200-ir"}
+        for title in TABS:  # every tab once, before any change
+            _open(page, title)
+            _check_tab(page, title, want)
+        for i, (css, value) in enumerate(CHANGES):
+            during = TABS[(3 * i + 1) % len(TABS)]  # the tab open when the change is made
+            _open(page, during)
+            page.select(css, value)
+            want[css.split("-")[1]] = value
+            _check_tab(page, during, want)
+            order = TABS[i % len(TABS):] + TABS[:i % len(TABS)]  # then every tab, starting somewhere else each time
+            for title in (order if i % 2 else order[::-1]):
+                _open(page, title)
+                _check_tab(page, title, want)
+                if title == "Image quality" and want["scene"] in CHARTS:
+                    page.shot(f"walk-quality-{want['scene']}-{want['camera']}")
+        assert page.errors() == []
+        log = server_log(server)
+        assert "Traceback" not in log and "Exception" not in log
+    finally:
+        page.close()
