@@ -63,3 +63,13 @@ def server():
     ARTIFACTS.mkdir(exist_ok=True)
     with explorer_server() as url:
         yield url
+
+
+@pytest.fixture
+def page(browser, server):
+    """A fresh page of the explorer (``app_helpers.Page``) on this module's server, closed after the test."""
+    from app_helpers import Page
+
+    pg = Page(browser, server)
+    yield pg
+    pg.close()

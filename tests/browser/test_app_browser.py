@@ -16,13 +16,6 @@ from app_helpers import (FIGURES_JS, IMAGE_VIEWS, POLL, Page, background_share, 
 pytestmark = pytest.mark.browser
 
 
-@pytest.fixture
-def page(browser, server):
-    pg = Page(browser, server)
-    yield pg
-    pg.close()
-
-
 def test_raising_noise_raises_the_mean_de_shown(page):
     before = page.status()
     assert before["params"]["noise_sigma"] == 0

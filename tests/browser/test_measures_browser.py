@@ -5,19 +5,12 @@ the dE. Playwright drives the system Chromium against ``camsim serve`` on 127.0.
 
 import pytest
 
-from app_helpers import Page, server_log
+from app_helpers import server_log
 
 pytestmark = pytest.mark.browser
 
 #: Light levels (x the scene's) of the ladder: the default, then up to the widget's largest.
 LIGHTS = (1, 2, 4, 8, 16, 32, 1000)
-
-
-@pytest.fixture
-def page(browser, server):
-    pg = Page(browser, server)
-    yield pg
-    pg.close()
 
 
 def _settled(page, name, value):

@@ -15,13 +15,6 @@ from app_helpers import (ARTIFACTS, POLL, Page, background_share, eventually, ex
 pytestmark = pytest.mark.browser
 
 
-@pytest.fixture
-def page(browser, server):
-    pg = Page(browser, server)
-    yield pg
-    pg.close()
-
-
 def test_a_first_result_landing_while_the_page_renders_is_shown(browser):
     """The first result arrives just after the browser pulled the page, before it reports ready
     (a slow first computation, e.g. a cold start): it must still reach the screen."""
