@@ -33,9 +33,9 @@ from . import state as state_module
 from .compare import compare_tab
 from .number_slider import NumberSlider
 from .physical import SensorControls
-from .shown import WhenShown, now
 from .quality import QualityView
 from .safe_text import md_text
+from .shown import WhenShown, now
 from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, VIEW_PARAMETERS, ExplorerState, Runner
 from .typed_text import TypedTextWatch
 from .upload import BoundedUpload
@@ -297,12 +297,6 @@ def _bind(widget, state, name):
     return widget
 
 
-def _sensor_field_value(state, name):
-    """The value of the electron-level sensor's field ``name`` in force (None: a camera without such fields)."""
-    fields = state.sensor_fields()
-    return None if fields is None else float(f"{fields[name]:.6g}")
-
-
 def _number(cls, state, name, css, label, **kw):
     """A numeric widget without client-side limits (the state checks them and says why)."""
     return _bind(cls(name=label, value=getattr(state, name), css_classes=[css], sizing_mode="stretch_width", **kw),
@@ -485,7 +479,7 @@ def _controls(state, results):
     labels = {css: label for css, (label, _) in numbers.items()}
     for name, (label, css) in SensorControls.LABELS.items():  # the electron-level sensor's boxes too
         labels[css] = label
-        values[css] = partial(_sensor_field_value, state, name)
+        values[css] = partial(SensorControls.shown_value, state, name)
     typed = TypedTextWatch(fields=labels, values=values,
                            css_classes=["w-typed-watch"], width=0, height=0, margin=0)
     typed.param.watch(lambda event: setattr(state, "message", typed.refused), "refused")

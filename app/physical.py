@@ -169,13 +169,20 @@ class SensorControls:
                     box.visible = fields is not None
                     if fields is not None:
                         # six significant digits on screen (a well scaled with the area: 877551, not 877551.0204081632)
-                        box.value = float(f"{fields[name]:.6g}")
+                        box.value = self.shown_value(self.state, name, fields)
                 self.note.object = (f"Electron-level cameras only ({', '.join(PHYSICAL_NAMES)}): the chapter's cameras "
                                     "are calibrated in digital units" if fields is None else
                                     "The sensor keeps its size: a new pitch changes the pixel count, and the full well "
                                     "follows the pixel's area unless set")
         finally:
             self._busy = False
+
+    @staticmethod
+    def shown_value(state, name, fields=None):
+        """The value a field's box shows: the field in force, to six significant digits (None: a camera
+        calibrated in digital units). ``fields``: ``state.sensor_fields()`` when already at hand."""
+        fields = state.sensor_fields() if fields is None else fields
+        return None if fields is None else float(f"{fields[name]:.6g}")
 
     def _from_widget(self, name, value):
         if self._busy:

@@ -52,5 +52,5 @@ class WhenShown:
         """The tab is shown (True) or hidden (False); shown, the updates held meanwhile run, each once."""
         self.shown = bool(shown)
         while self.shown and self._pending:
-            _, fn = self._pending.popitem()
+            fn = self._pending.pop(next(iter(self._pending)))  # the first held first
             fn()
