@@ -28,7 +28,8 @@ from bokeh.core.validation.warnings import FIXED_SIZING_MODE
 from camsim_core.camera.physical import PHYSICAL_NAMES
 from camsim_core.scene.charts import CHART_NAMES, chart_defaults
 
-from . import _panel_tuning
+from . import compat
+from .compat import hooks as _compat
 from . import state as state_module
 from .compare import compare_tab
 from .number_slider import NumberSlider
@@ -47,7 +48,7 @@ DEFAULT_SCENE = "cacaphony290"
 _options = {"scene": None, "upload": True}
 #: Every session's state while it lives (weak: a closed session's state must be freed).
 LIVE_STATES = weakref.WeakSet()
-_LIVE_LOCK = threading.Lock()  # pages are built in a thread (app._build_off_loop) while the loop looks at them
+_LIVE_LOCK = threading.Lock()  # pages are built in a thread (app/compat/build_off_loop.py) while the loop looks at them
 
 
 def live_states():
@@ -116,58 +117,14 @@ class _ClosedTabFilter(logging.Filter):
         return "connection was closed" not in record.getMessage()
 
 
-logging.getLogger("bokeh.server.views.ws").addFilter(_ClosedTabFilter())
-# HoloViews plots sized by their frame (frame_width / frame_height) are valid but make Bokeh warn
-# W-1005 FIXED_SIZING_MODE once per plot and session: silence that one check, not the log.
-silence(FIXED_SIZING_MODE, True)
-
-
-def _pages_without_mathjax():
-    """Pages load without Bokeh's MathJax bundle (1.8 MB of script to fetch and compile on every first
-    visit). Panel adds it whenever a page holds an HTML or Markdown pane, in case one shows TeX; no text of
-    the explorer does (its panes run with TeX off), so nothing is lost."""
-    import panel.io.resources as resources
-
-    resources._panel_use_mathjax = lambda roots: False
-
-
-def _link_values_kept_as_text_when_unreadable():
-    """A link's value Panel cannot convert is kept as text, not an HTTP 500.
-
-    Panel reads the address's values with ``panel.util.parse_query``, which
-    turns a value of digits into an int: one of more than 4,300 digits raised
-    ValueError (Python's limit on ``int()`` of a text) while the page was being
-    made, and the server answered HTTP 500 with a traceback in its log. Kept as
-    text, the value reaches the explorer's own checks: the page says the link's
-    value is too long (``_long_url_values``) or refused (``on_error``).
-    """
-    import panel.io.location as location
-
-    parse = getattr(location, "parse_query", None)
-    if parse is None or getattr(parse, "camsim", False):
-        return
-    from urllib.parse import parse_qsl, urlencode
-
-    def parse_query(query):
-        try:
-            return parse(query)
-        except Exception:
-            pass
-        values = {}
-        for key, value in dict(parse_qsl(str(query)[1:])).items():
-            try:
-                values.update(parse("?" + urlencode({key: value})))
-            except Exception:
-                values[key] = value
-        return values
-
-    parse_query.camsim = True
-    location.parse_query = parse_query
-
-
-_pages_without_mathjax()
-_link_values_kept_as_text_when_unreadable()
-_panel_tuning.apply()
+def _quiet_known_warnings():
+    """Bokeh's warnings the explorer expects, silenced (once; called by :func:`create_app`, not on import)."""
+    ws = logging.getLogger("bokeh.server.views.ws")
+    if not any(isinstance(f, _ClosedTabFilter) for f in ws.filters):
+        ws.addFilter(_ClosedTabFilter())
+    # HoloViews plots sized by their frame (frame_width / frame_height) are valid but make Bokeh warn
+    # W-1005 FIXED_SIZING_MODE once per plot and session: silence that one check, not the log.
+    silence(FIXED_SIZING_MODE, True)
 
 
 def configure(scene=None, *, limits=None, upload=True):
@@ -210,24 +167,6 @@ def warm_up():
     return time.perf_counter() - t0
 
 
-def _forget_js_links(roots):
-    """Drop the browser-side links of a closed session's widgets from Panel's registry.
-
-    ``panel.links.Callback.registry`` is a weak-keyed dict whose values (the
-    links) hold their source widget strongly, so an entry never goes away by
-    itself: it kept every closed session's widgets, state and arrays alive.
-    """
-    from panel.links import Callback
-
-    mine = set()
-    for root in roots:
-        for obj in root.select() if hasattr(root, "select") else []:
-            mine.add(id(obj))
-    for key in list(Callback.registry.keys()):
-        if id(key) in mine:
-            Callback.registry.pop(key, None)
-
-
 def _release(state, page, template=None):
     """Break a closed session's links so that its state, pipeline and views are freed.
 
@@ -237,7 +176,7 @@ def _release(state, page, template=None):
     and the page's children leaves nothing that reaches the session's arrays.
     """
     if template is not None:
-        _forget_js_links([page, *list(template.sidebar), *list(template.header)])
+        _compat.forget_js_links([page, *list(template.sidebar), *list(template.header)])
         template.state = None
     for group in list(state.param.watchers.values()) if hasattr(state.param, "watchers") else []:
         for watchers in list(group.values()):
@@ -615,31 +554,8 @@ def _new_state(scene):
 STRANDED_CHECK_MS = 500
 
 
-def flush_stranded_writes(doc):
-    """Send changes Panel queued for the browser and then forgot; True when there were some.
-
-    Panel (1.9) queues the changes made while a websocket write is under way
-    (``_WRITE_MSGS``) and schedules a task that sends them while the write
-    block (``_WRITE_BLOCK``) is set. An earlier such task that finishes in
-    between clears the block, and the new task then returns without sending:
-    the page keeps its previous result although the session has the new one,
-    until some later change happens to send them along (seen as a "lost
-    update" in long browser walks and under load). Each session runs this
-    check every ``STRANDED_CHECK_MS``: it re-arms the block and the task for
-    queued messages that no task will send.
-    """
-    from panel.io import document as pdoc
-
-    msgs, block = getattr(pdoc, "_WRITE_MSGS", None), getattr(pdoc, "_WRITE_BLOCK", None)
-    dispatch = getattr(pdoc, "_dispatch_write_task", None)
-    if msgs is None or block is None or dispatch is None:  # another Panel: nothing known to flush
-        return False
-    if msgs.get(doc) and doc not in block:
-        block[doc] = True
-        dispatch(doc, pdoc._dispatch_msgs, doc)
-        logging.getLogger("camsim.explorer").info("re-sent %d stranded message group(s)", len(msgs[doc]))
-        return True
-    return False
+#: Changes Panel queued and forgot are sent by :func:`camsim_explorer.compat.hooks.flush_stranded_writes`.
+flush_stranded_writes = _compat.flush_stranded_writes
 
 
 def _go_background(state):
@@ -667,6 +583,8 @@ def _go_background(state):
 
 def create_app(scene=None):
     """One session's page (a fresh state: nothing is shared between sessions but read-only data)."""
+    compat.apply()
+    _quiet_known_warnings()
     pn.extension(notifications=False, raw_css=[_PRESENT_CSS])
     state = _new_state(scene)
     with _LIVE_LOCK:
@@ -773,7 +691,7 @@ def _undelayed(objects):
     the computation of an older one), and 50 ms is a third of the time a slider has to answer."""
     for obj in objects:
         for widget in obj.select(pn.widgets.Widget) if hasattr(obj, "select") else ():  # a Text has no widgets
-            widget._debounce = 0
+            _compat.undelay(widget)
 
 
 class _Design(pn.theme.Bootstrap):
@@ -815,14 +733,9 @@ def show_presentation(doc, on):
         doc.theme = _THEME_BEFORE.pop(doc)
 
 
-class _Template(pn.template.BootstrapTemplate):
+class _Template(_compat.DataURIFavicon, pn.template.BootstrapTemplate):
     """The page template, put into its document in one batch: Panel adds the page's models and links
     one by one, and Bokeh re-walks the whole model graph after each (18 walks, about 1 s per new page)."""
-
-    @staticmethod
-    def _get_favicon_type(favicon):
-        # Panel knows icons by their file name's ending; the explorer's is a data URI
-        return "image/svg+xml" if favicon == FAVICON else pn.template.BootstrapTemplate._get_favicon_type(favicon)
 
     def server_doc(self, doc=None, title=None, location=True):
         doc = doc if doc is not None else pn.state.curdoc
@@ -849,10 +762,9 @@ def _sync_address(state, names, on_error):
     """
     location = pn.state.location
     location.sync(state, {p: p for p in names}, on_error=on_error)
-    entry = next((e for e in getattr(location, "_synced", ()) if e[0] is state), None)
-    if entry is None or not callable(getattr(location, "_update_query", None)):  # another Panel: its own writing
+    update_query = _compat.address_writer(location, state)
+    if update_query is None:  # another Panel: its own writing
         return
-    state.param.unwatch(entry[2])
     pending, armed = set(), [0]
 
     def write(generation):
@@ -872,7 +784,7 @@ def _sync_address(state, names, on_error):
                 pass
             query[name] = value if isinstance(value, str) else json.dumps(value)
         pending.clear()
-        location._update_query(query=query)  # Panel's writer: marks the address as written by the page
+        update_query(query)  # Panel's writer: marks the address as written by the page
 
     def arm():
         armed[0] += 1

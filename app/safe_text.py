@@ -13,7 +13,8 @@ pane:
   ``[links](javascript:...)``, emphasis, code spans, tables, emoji codes
   nor math come out of it; on a line of its own it stays one line;
 * :class:`PlainText`, a ``Str`` pane whose content is shown as text (Panel's own
-  wraps it in ``<pre>`` unescaped).
+  wraps it in ``<pre>`` unescaped; in :mod:`camsim_explorer.compat.plain_text`: it overrides a
+  private method of Panel's pane).
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from __future__ import annotations
 import html
 import re
 
-import panel as pn
+from .compat.plain_text import PlainText
 
 __all__ = ["html_text", "md_text", "PlainText"]
 
@@ -49,12 +50,3 @@ def md_text(value):
     for part in re.split(r"""([&<>"'])""", text):
         out.append(_ENTITIES[part] if part in _ENTITIES else _PUNCTUATION.sub(r"\\\1", part))
     return "".join(out)
-
-
-class PlainText(pn.pane.Str):
-    """A ``Str`` pane that shows its text as text, in ``<pre>`` (``object`` stays the text itself)."""
-
-    def _transform_object(self, obj):
-        text = " " if obj is None or (isinstance(obj, str) and obj == "") else str(obj)
-        # escaped once for the page, once more for the model (the browser decodes that one, as for Panel's own)
-        return dict(object=html.escape("<pre>" + html.escape(text) + "</pre>"))

@@ -333,11 +333,13 @@ def run(args):
 
         start_upload_readers()
     _freeze_startup_objects()
-    from . import _build_off_loop  # pages built in a thread: the event loop serves the others meanwhile
+    from . import compat
+    from .compat import build_off_loop as _build_off_loop  # pages built in a thread: the event loop serves the others meanwhile
 
+    compat.apply()  # Panel's internals the explorer relies on: a warning in the log for each one missing
     _build_off_loop.install()
     if not args.no_spare_page:
-        from . import _spare_session
+        from .compat import spare_session as _spare_session
 
         if _spare_session.install():
             _spare_session.prepare_at_start(f"{public_host(args.address)}:{args.port}")
@@ -351,7 +353,11 @@ def run(args):
              unused_session_lifetime_milliseconds=idle_ms,
              check_unused_sessions_milliseconds=max(500, min(idle_ms, 10_000)),
              transforms=[ContentSecurityPolicy])
-    refuse_other_hosts(server._tornado, origins)  # before the server takes its first request
+    tornado = compat.hooks.tornado_app(server)
+    if tornado is None:  # no Host check means a page of any site could reach this server (DNS rebinding)
+        sys.exit("camsim serve: this Bokeh does not expose its Tornado application, so the Host header cannot be "
+                 "checked; not serving (see camsim_explorer/compat)")
+    refuse_other_hosts(tornado, origins)  # before the server takes its first request
     server.start()
     from .loop_watch import watch_event_loop, watch_garbage_collection
 

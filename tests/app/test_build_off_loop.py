@@ -1,4 +1,4 @@
-"""Pages are built in a thread of their own, not on the server's event loop (app/_build_off_loop.py)."""
+"""Pages are built in a thread of their own, not on the server's event loop (app/compat/build_off_loop.py)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ def test_the_replacement_matches_the_installed_bokeh():
     the event loop again (the server only logs a warning)."""
     from bokeh.server.contexts import ApplicationContext
 
-    from camsim_explorer import _build_off_loop
+    from camsim_explorer.compat import build_off_loop as _build_off_loop
 
     assert _build_off_loop._digest(ApplicationContext.create_session_if_needed) == _build_off_loop.BOKEH_SOURCE_SHA256
     assert _build_off_loop.install()

@@ -1,4 +1,4 @@
-"""The explorer's removal of Panel per-event costs (``app._panel_tuning``) changes no result.
+"""The explorer's removal of Panel per-event costs (``app.compat.tuning``) changes no result.
 
 Each patch is compared with Panel's own method it replaces, on the same
 inputs: the properties sent to the browser must be identical.
@@ -12,8 +12,10 @@ import panel as pn
 import param
 from bokeh.document import Document
 
-import camsim_explorer.main  # noqa: F401  (applies the patches, as the server does)
-from camsim_explorer import _panel_tuning
+from camsim_explorer import compat
+from camsim_explorer.compat import tuning as _panel_tuning
+
+compat.apply()  # as the server does
 
 
 def _events(widget, **values):

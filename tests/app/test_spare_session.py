@@ -1,9 +1,9 @@
-"""The next page built in advance (``app._spare_session``): what a spare is built from, and which requests
+"""The next page built in advance (``app.compat.spare_session``): what a spare is built from, and which requests
 never get one. The browser test ``test_a_page_built_in_advance_is_the_page_a_request_builds`` checks the page."""
 
 from tornado.httputil import HTTPHeaders, HTTPServerRequest, RequestStartLine
 
-from camsim_explorer import _spare_session as spare
+from camsim_explorer.compat import spare_session as spare
 
 
 def _request(uri, headers=None):

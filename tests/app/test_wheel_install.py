@@ -93,8 +93,9 @@ def test_the_wheel_holds_the_engine_the_explorer_and_every_shipped_file(wheel):
     for init in (ROOT / "camsim_core").rglob("__init__.py"):  # every package of the engine
         name = init.relative_to(ROOT).as_posix()
         missing += [] if name in infos else [name]
-    for module in (ROOT / "app").glob("*.py"):  # the explorer, under its own name
-        missing += [] if f"camsim_explorer/{module.name}" in infos else [f"app/{module.name}"]
+    for module in (ROOT / "app").rglob("*.py"):  # the explorer and its subpackages, under its own name
+        name = module.relative_to(ROOT / "app").as_posix()
+        missing += [] if f"camsim_explorer/{name}" in infos else [f"app/{name}"]
     shipped = [p for p in (ROOT / "assets").rglob("*") if p.is_file() and "__pycache__" not in p.parts]
     for path in shipped:  # every shipped file, byte for byte (the zip's CRC-32 of it)
         name = "camsim_core/assets/" + path.relative_to(ROOT / "assets").as_posix()

@@ -19,7 +19,7 @@ handed to the loop's thread once the build is done. The replacement is
 installed only when Bokeh's method is the one it was written against (its
 source's digest, :data:`BOKEH_SOURCE_SHA256`); otherwise the server logs a
 warning and builds on the loop as before, and ``tests/app/test_build_off_loop.py``
-fails, so an upgrade of Bokeh cannot switch it off unnoticed.
+and ``tests/app/test_compat.py`` fail, so an upgrade of Bokeh cannot switch it off unnoticed.
 
 Written by hand: neither Bokeh nor Panel offers to build documents off the
 event loop (Panel's ``--num-threads`` runs callbacks in threads, not builds).
@@ -40,14 +40,14 @@ from concurrent.futures import ThreadPoolExecutor
 
 from camsim_core._parallel import BACKGROUND_NICE
 
-__all__ = ["install", "BOKEH_SOURCE_SHA256", "installed", "run_in_builder", "SPECULATIVE"]
+__all__ = ["install", "BOKEH_SOURCE_SHA256", "installed", "matches_bokeh", "run_in_builder", "SPECULATIVE"]
 
 #: Digest of Bokeh 3.9's ``ApplicationContext.create_session_if_needed`` (sha256 of its source, first 16 hex).
 BOKEH_SOURCE_SHA256 = "047e758c152be0f6"
 
 _log = logging.getLogger("camsim.serve")
 _installed = []
-#: True while the current task builds a spare page (``camsim_explorer._spare_session``): built at background priority.
+#: True while the current task builds a spare page (``camsim_explorer.compat.spare_session``): built at background priority.
 SPECULATIVE = contextvars.ContextVar("camsim_speculative_build", default=False)
 
 
@@ -75,6 +75,13 @@ def run_in_builder(fn, *args):
 
 def _digest(fn):
     return hashlib.sha256(inspect.getsource(fn).encode()).hexdigest()[:16]
+
+
+def matches_bokeh():
+    """True when Bokeh's session maker is the one :func:`install` was written against (or already replaced)."""
+    from bokeh.server import contexts
+
+    return bool(_installed) or _digest(contexts.ApplicationContext.create_session_if_needed) == BOKEH_SOURCE_SHA256
 
 
 def installed():

@@ -33,7 +33,7 @@ import logging
 import time
 import weakref
 
-from . import _build_off_loop
+from . import build_off_loop as _build_off_loop
 
 __all__ = ["install", "prepare_at_start", "SPARE_DELAY_S"]
 
@@ -60,7 +60,7 @@ _last_message = [0.0]  # when a page last sent the server a message (monotonic s
 
 def _busy():
     """A session computing a result: a build now would hold its result back on the event loop."""
-    from . import main
+    from .. import main
 
     return any(getattr(s, "computing", False) for s in main.live_states())
 
@@ -87,7 +87,7 @@ def _token(tornado_app, session_id, payload):
 async def _build(path):
     from bokeh.util.token import generate_session_id
 
-    from . import main
+    from .. import main
 
     context, tornado_app, request = _sources[path]
     session_id = generate_session_id(secret_key=tornado_app.secret_key, signed=tornado_app.sign_sessions)
@@ -130,7 +130,7 @@ def serialize_built_page(session):
     the event loop once its first result is in, for the pull its browser makes after loading the scripts
     (0.5-0.8 s later). Serialized on the loop, a page with its first images held every other page for
     150-250 ms (the server's loop watch, in the hostile load test)."""
-    from . import main
+    from .. import main
 
     state = main.state_of(session.document)
     if state is None or not _build_off_loop.installed():

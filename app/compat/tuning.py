@@ -28,7 +28,7 @@ that Panel still has the method it replaces and does nothing otherwise.
 
 from __future__ import annotations
 
-__all__ = ["skip_busy_tracking", "design_only_for_stylesheets", "quiet_debug_logging", "apply"]
+__all__ = ["skip_busy_tracking", "design_only_for_stylesheets", "quiet_debug_logging", "available", "apply"]
 
 _applied = set()
 
@@ -75,8 +75,26 @@ def quiet_debug_logging():
     return False
 
 
+def available():
+    """``{patch: True when the Panel internal it replaces is there}`` (applied or not)."""
+    from panel.io.state import _state
+    from panel.reactive import Reactive
+
+    return {"skip_busy_tracking": hasattr(_state, "_add_busy_event") and hasattr(_state, "_remove_busy_event"),
+            "design_only_for_stylesheets": hasattr(Reactive, "_update_properties")}
+
+
 def apply():
-    """All three (the explorer's module calls this once, on import)."""
+    """All three (:func:`camsim_explorer.compat.apply` calls this).
+
+    Examples
+    --------
+    >>> from camsim_explorer.compat import tuning
+    >>> tuning.apply()
+    >>> from panel.io.state import state
+    >>> state.busy
+    False
+    """
     skip_busy_tracking()
     design_only_for_stylesheets()
     quiet_debug_logging()

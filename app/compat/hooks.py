@@ -1,0 +1,218 @@
+"""The explorer's smaller uses of Panel and Bokeh internals, each in one function here.
+
+Each was measured or seen to matter (the reason is in its docstring). Each
+checks that the internal it uses is still there and, when it is not, returns
+False (or None) and the explorer falls back to Panel's own behaviour; the
+fallback is logged once by :func:`camsim_explorer.compat.apply`, and
+``tests/app/test_compat.py`` fails on a Panel or Bokeh in which any of them
+no longer applies.
+
+Written by hand: Panel offers none of these as settings.
+"""
+
+from __future__ import annotations
+
+import logging
+
+__all__ = ["pages_without_mathjax", "link_values_kept_as_text", "forget_js_links", "flush_stranded_writes",
+           "undelay", "DataURIFavicon", "address_writer", "tornado_app", "HOOKS"]
+
+_log = logging.getLogger("camsim.explorer")
+
+
+def pages_without_mathjax():
+    """Pages load without Bokeh's MathJax bundle (1.8 MB of script to fetch and compile on every first
+    visit). Panel adds it whenever a page holds an HTML or Markdown pane, in case one shows TeX; no text of
+    the explorer does (its panes run with TeX off), so nothing is lost. True when applied."""
+    import panel.io.resources as resources
+
+    if not hasattr(resources, "_panel_use_mathjax"):
+        return False
+    if getattr(resources._panel_use_mathjax, "camsim", False):
+        return True
+
+    def no_mathjax(roots):
+        return False
+
+    no_mathjax.camsim = True
+    resources._panel_use_mathjax = no_mathjax
+    return True
+
+
+def link_values_kept_as_text():
+    """A link's value Panel cannot convert is kept as text, not an HTTP 500. True when applied.
+
+    Panel reads the address's values with ``panel.util.parse_query``, which
+    turns a value of digits into an int: one of more than 4,300 digits raised
+    ValueError (Python's limit on ``int()`` of a text) while the page was being
+    made, and the server answered HTTP 500 with a traceback in its log. Kept as
+    text, the value reaches the explorer's own checks: the page says the link's
+    value is too long or refused.
+    """
+    import panel.io.location as location
+
+    parse = getattr(location, "parse_query", None)
+    if parse is None:
+        return False
+    if getattr(parse, "camsim", False):
+        return True
+    from urllib.parse import parse_qsl, urlencode
+
+    def parse_query(query):
+        try:
+            return parse(query)
+        except Exception:  # any value Panel's parser chokes on: parsed one by one below
+            pass
+        values = {}
+        for key, value in dict(parse_qsl(str(query)[1:])).items():
+            try:
+                values.update(parse("?" + urlencode({key: value})))
+            except Exception:
+                values[key] = value
+        return values
+
+    parse_query.camsim = True
+    location.parse_query = parse_query
+    return True
+
+
+def forget_js_links(roots):
+    """Drop the browser-side links of a closed session's widgets from Panel's registry.
+
+    ``panel.links.Callback.registry`` is a weak-keyed dict whose values (the
+    links) hold their source widget strongly, so an entry never goes away by
+    itself: it kept every closed session's widgets, state and arrays alive.
+    Returns the number of entries dropped, or None when Panel has no such registry.
+    """
+    from panel.links import Callback
+
+    registry = getattr(Callback, "registry", None)
+    if registry is None:
+        return None
+    mine = set()
+    for root in roots:
+        for obj in root.select() if hasattr(root, "select") else []:
+            mine.add(id(obj))
+    dropped = 0
+    for key in list(registry.keys()):
+        if id(key) in mine:
+            registry.pop(key, None)
+            dropped += 1
+    return dropped
+
+
+def _write_queue():
+    """Panel's per-document queue of unsent messages, its write block and its dispatcher, or None."""
+    from panel.io import document as pdoc
+
+    parts = (getattr(pdoc, "_WRITE_MSGS", None), getattr(pdoc, "_WRITE_BLOCK", None),
+             getattr(pdoc, "_dispatch_write_task", None), getattr(pdoc, "_dispatch_msgs", None))
+    return None if any(p is None for p in parts) else parts
+
+
+def flush_stranded_writes(doc):
+    """Send changes Panel queued for the browser and then forgot; True when there were some.
+
+    Panel (1.9) queues the changes made while a websocket write is under way
+    (``_WRITE_MSGS``) and schedules a task that sends them while the write
+    block (``_WRITE_BLOCK``) is set. An earlier such task that finishes in
+    between clears the block, and the new task then returns without sending:
+    the page keeps its previous result although the session has the new one,
+    until some later change happens to send them along (seen as a "lost
+    update" in long browser walks and under load). Each session runs this
+    check periodically: it re-arms the block and the task for queued messages
+    that no task will send.
+    """
+    queue = _write_queue()
+    if queue is None:  # another Panel: nothing known to flush (logged by compat.apply)
+        return False
+    msgs, block, dispatch, send = queue
+    if msgs.get(doc) and doc not in block:
+        block[doc] = True
+        dispatch(doc, send, doc)
+        _log.info("re-sent %d stranded message group(s)", len(msgs[doc]))
+        return True
+    return False
+
+
+def undelay(widget):
+    """The widget's changes reach the server at once: Panel holds each change from the browser for 50 ms
+    (to gather a burst into one) before acting on it. A burst costs nothing here (a newer change supersedes
+    the computation of an older one), and 50 ms is a third of the time a slider has to answer.
+    True when applied."""
+    if not hasattr(widget, "_debounce"):
+        return False
+    widget._debounce = 0
+    return True
+
+
+class DataURIFavicon:
+    """A template mixin: Panel knows a page icon's type by its file name's ending; the explorer's icon is a
+    data URI, whose type it states itself."""
+
+    @staticmethod
+    def _get_favicon_type(favicon):
+        import panel as pn
+
+        if str(favicon).startswith("data:"):
+            return str(favicon)[5:].split(";", 1)[0].split(",", 1)[0]
+        return pn.template.BootstrapTemplate._get_favicon_type(favicon)
+
+
+def address_writer(location, state):
+    """Take over the writing of ``state``'s synced parameters into the page's address.
+
+    After ``location.sync(state, ...)``, Panel writes every change into the
+    address at once. This removes Panel's watcher and returns Panel's own
+    writer, ``write(query)`` (it marks the address as written by the page, so
+    that the change does not come back as a navigation), for the caller to
+    call when it chooses; or None when this Panel keeps its writing to itself
+    (the address is then written by Panel at every change, as before).
+    """
+    entry = next((e for e in getattr(location, "_synced", ()) if e[0] is state), None)
+    update = getattr(location, "_update_query", None)
+    if entry is None or not callable(update):
+        return None
+    state.param.unwatch(entry[2])
+    return lambda query: update(query=query)
+
+
+def tornado_app(server):
+    """The Tornado application of a Bokeh server made by ``pn.serve(..., start=False)``, or None."""
+    return getattr(server, "_tornado", None)
+
+
+def _has(module, *path):
+    import importlib
+
+    obj = importlib.import_module(module)
+    for name in path:
+        if not hasattr(obj, name):
+            return False
+        obj = getattr(obj, name)
+    return True
+
+
+#: Each hook and the Panel or Bokeh internals it needs: ``compat.status()`` checks that they are all there.
+HOOKS = {
+    "pages_without_mathjax": lambda: _has("panel.io.resources", "_panel_use_mathjax"),
+    "link_values_kept_as_text": lambda: _has("panel.io.location", "parse_query"),
+    "forget_js_links": lambda: _has("panel.links", "Callback", "registry"),
+    "flush_stranded_writes": lambda: _write_queue() is not None,
+    "undelay": lambda: _has("panel.widgets", "FloatSlider") and hasattr(__import__("panel").widgets.FloatSlider(), "_debounce"),
+    "favicon_type": lambda: _has("panel.template", "BootstrapTemplate", "_get_favicon_type"),
+    "plain_text": lambda: _has("panel.pane", "Str", "_transform_object"),
+    "address_writer": lambda: _has("panel.io.location", "Location", "_update_query")
+    and hasattr(__import__("panel").io.location.Location(), "_synced"),
+    "tornado_app": lambda: _has("bokeh.server.server", "Server") and "_tornado" in _init_names("bokeh.server.server", "BaseServer"),
+}
+
+
+def _init_names(module, cls):
+    """Attribute names that ``cls.__init__`` assigns on self (read from its source)."""
+    import importlib
+    import inspect
+    import re
+
+    source = inspect.getsource(getattr(importlib.import_module(module), cls).__init__)
+    return set(re.findall(r"self\.(\w+)\s*=", source))
