@@ -16,6 +16,12 @@ against:
    per degree, ``u = ceil(224 / s)``, convolved with the triangle
    ``[1, 2, .., u, .., 2, 1] / u`` and sampled every ``u``-th tap outwards
    from the centre, so filtering still runs at the image's own resolution;
+   the taps kept are normalized to sum 1 again. S-CIELAB 1.1.1 does not
+   renormalize them, and its channels' gains on a uniform field drift with
+   the rate (luminance x1.03 and red-green x0.95 at 8 samples per degree,
+   x0.69 at 2): a uniform difference then no longer scores as in CIELAB.
+   ISETCam's 2-D filters (``scPrepareFilters``, ``sumGauss``) sum to 1 at
+   every rate, as these now do;
 3. edges are mirrored (edge sample included) by half a kernel, or half the
    image where that is smaller, and zero beyond; the original filters
    horizontally then vertically and crops;
@@ -220,8 +226,11 @@ def _kernels(spd):
     for gaussians in GAUSSIANS:
         kx = []
         for half_deg, weight in gaussians:
-            k = _gauss(half_deg * rate, width) * math.sqrt(abs(weight)) * math.copysign(1.0, weight)
-            kx.append(_subsample(k, u) if u > 1 else k)
+            g = _gauss(half_deg * rate, width)
+            if u > 1:  # the taps kept sum to 1 again: the channel's DC gain is its weights' sum, 1, at every rate
+                g = _subsample(g, u)
+                g = g / g.sum()
+            kx.append(g * math.sqrt(abs(weight)) * math.copysign(1.0, weight))
         kx = np.array(kx)
         ky = np.abs(kx)
         kx.flags.writeable = ky.flags.writeable = False
