@@ -94,11 +94,33 @@ def test_fitted_options_name_the_chart_they_make_and_a_large_camera_is_bounded()
     assert opts["size"] == (860, 1295) and opts["angular_resolution"] == 102.6 and opts["distance"] == 3.32
     big = fitted_chart_options("slanted-edge", (1944, 2592), (30.0, 30.0), 3.32, max_values=10_000_000)
     assert big["size"][0] * big["size"][1] * 31 <= 10_000_000 * 1.01
-    # still covering the frame: fewer, coarser samples
-    assert big["size"][0] / big["angular_resolution"] == pytest.approx(0.85 * 1944 / 30.0, rel=0.01)
+    # at the camera's own sampling, covering less of the frame: a coarser chart would be what the MTF measures
+    assert big["angular_resolution"] == 30.0
+    cover = np.array(big["size"]) / np.array([1944, 2592])
+    assert cover == pytest.approx(np.sqrt(10_000_000 / (0.85**2 * 1944 * 2592 * 31)) * 0.85, rel=0.01)
+    # a uniform field (no detail to measure) still covers 85 % of the frame, in coarser samples
+    flat = fitted_chart_options("uniform", (1944, 2592), (30.0, 30.0), 3.32, max_values=1_000_000)
+    assert flat["size"][0] / flat["angular_resolution"] == pytest.approx(0.85 * 1944 / 30.0, rel=0.01)
+    assert flat["angular_resolution"] < 30.0 / 8
     given = fitted_chart_options("slanted-edge", (1012, 1524), (102.6, 102.6), 3.32, size=(64, 96), angle=10.0)
     s = chart("slanted-edge", **given)
     assert s.data.shape[:2] == (64, 96)
     # the side that fills its share of the frame first (here the height, 64 / 1012 > 96 / 1524) spans 85 %
     extent = np.array([64, 96]) / s.angular_resolution[0] * 102.6
     assert max(extent / (0.85 * np.array([1012, 1524]))) == pytest.approx(1.0, rel=1e-4)
+
+
+@pytest.mark.parametrize("camera", ["kodak-dcs200", "imx174", "phone-1.4um"])
+def test_every_shipped_camera_sees_the_edge_at_its_own_sampling(camera):
+    # the MTF the quality tab shows is the camera's only if the chart is sampled as the camera samples: on a
+    # chart 1.54 px per sample (phone-1.4um's, cut to the explorer's chart limit) MTF50 at f/2 read 0.17
+    # cycles/px, against 0.25 for the same camera on a chart at its own sampling
+    from camsim_core import load_camera
+    from camsim_explorer.state import LIMITS
+
+    cam = load_camera(camera)
+    for name in ("slanted-edge", "zone-plate"):
+        opts = fitted_chart_options(name, (cam.height, cam.width), cam.angular_resolution, 3.32,
+                                    max_values=LIMITS.max_chart_values)
+        assert opts["angular_resolution"] == pytest.approx(cam.angular_resolution[0], rel=1e-5), (name, opts)
+        assert opts["size"][0] * opts["size"][1] * 31 <= LIMITS.max_chart_values
