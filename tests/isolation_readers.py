@@ -29,3 +29,7 @@ def exits(filename, content, limits):
     import os
 
     os._exit(0)
+
+
+def raises(filename, content, limits):
+    return 1 / 0  # a reader's bug (not a CamsimError)

@@ -116,6 +116,11 @@ def _child(conn, filename, content, limits, reader):
     except MemoryError:
         conn.send(("error", f"{upload_name(filename)}: needs more than the "
                             f"{limits.worker_memory_bytes / 2**20:.0f} MiB a read may use"))
+    except Exception as exc:  # a reader's bug: the uploader gets a message, the log the traceback
+        import traceback
+
+        traceback.print_exc()
+        conn.send(("error", f"{upload_name(filename)}: could not be read (the reader failed: {type(exc).__name__})"))
     finally:
         conn.close()
 

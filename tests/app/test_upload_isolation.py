@@ -45,6 +45,7 @@ def _still_serving():
     (isolation_readers.sleep, "took longer than 4 s"),
     (isolation_readers.hog, "needs more than the 512 MiB"),
     (isolation_readers.exits, "stopped without an answer"),
+    (isolation_readers.raises, "the reader failed: ZeroDivisionError"),
 ])
 def test_a_misbehaving_read_costs_only_itself(reader, expected):
     t0 = time.monotonic()
