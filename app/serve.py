@@ -11,6 +11,7 @@ a flag here and listed in docs/serving.md (Limits).
 from __future__ import annotations
 
 import logging
+import os
 import socket
 import sys
 import time
@@ -299,6 +300,21 @@ def _quiet_closed_page_writes():
         closed_page_exception_handler))
 
 
+def serve_resources_locally():
+    """Every page takes Bokeh's and Panel's scripts and stylesheets from this server, never from a CDN.
+
+    Bokeh and Panel read the resource mode from one process-wide setting (``BOKEH_RESOURCES`` or a value
+    set in the process); a ``cdn`` there, inherited from the environment or left by a notebook rendering,
+    made a page load its stylesheets from cdn.holoviz.org (seen once in a browser test): a classroom
+    without the internet got an unstyled page. The setting's own value is pinned to ``server`` (Panel's
+    temporary changes restore it), and so is the environment's, for the upload readers' workers.
+    """
+    from bokeh.settings import settings
+
+    os.environ["BOKEH_RESOURCES"] = "server"
+    settings.resources.set_value("server")
+
+
 def run(args):
     from camsim_core import load_scene
 
@@ -314,6 +330,7 @@ def run(args):
         scene = args.scene if str(args.scene).lower() == scene.name else scene
     _log_to_stderr()
     _quiet_closed_page_writes()
+    serve_resources_locally()
     libc = _return_freed_memory_to_the_system()
     import panel as pn
 

@@ -206,3 +206,22 @@ def test_compat_examples_run(name):
 
     result = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS)
     assert result.attempted > 0 and result.failed == 0
+
+
+def test_the_server_serves_its_resources_itself_whatever_the_environment(monkeypatch):
+    # a cdn resource mode in the environment (or left by a notebook rendering) sent pages to cdn.holoviz.org
+    from bokeh.settings import settings
+    from panel.io.resources import set_resource_mode, use_cdn
+
+    from camsim_explorer.serve import serve_resources_locally
+
+    monkeypatch.setenv("BOKEH_RESOURCES", "cdn")
+    assert use_cdn()  # the hazard: Panel would take its CSS from the CDN
+    try:
+        serve_resources_locally()
+        assert not use_cdn()
+        with set_resource_mode("cdn"):  # Panel's temporary change (a notebook rendering) ...
+            pass
+        assert not use_cdn()  # ... restores the server's mode, not the environment's
+    finally:
+        settings.resources.unset_value()
