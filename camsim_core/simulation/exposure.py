@@ -7,12 +7,13 @@ import numpy as np
 from ..errors import ParameterError
 from .sensor import sensor_weights
 
-__all__ = ["auto_exposure"]
+__all__ = ["auto_exposure", "recordable_level"]
 
 
 def auto_exposure(scene, camera, *, target=0.9, percentile=99.5):
     """Exposure time (s) at which the ``percentile`` of the brightest sensor's
-    noiseless response is ``target`` x full scale (2**bits - 1, or 255 when unquantized).
+    noiseless response is ``target`` x what it can record (:func:`recordable_level`: the full scale,
+    2**bits - 1 or 255 when unquantized; for an electron-level camera the full well when that comes first).
 
     Computed on the scene's own pixels (resampling averages, so it lowers the
     peak only slightly). The response is linear in exposure, so one
@@ -37,5 +38,29 @@ def auto_exposure(scene, camera, *, target=0.9, percentile=99.5):
     level = float(np.percentile(sample.max(axis=1), percentile))
     if level <= 0:
         raise ParameterError("scene", "gives no response in this camera's sensors; cannot choose an exposure")
+    return camera.exposure * target * recordable_level(camera) / level
+
+
+def recordable_level(camera):
+    """The highest response the camera records, in the units of the sensor stage's noiseless output.
+
+    Its full scale (2**bits - 1, or 255 unquantized); for an electron-level camera
+    (``noise_model="photon"``) also its full well, through the conversion gain and the analog gain,
+    whichever comes first, and the black level below the full scale.
+
+    Examples
+    --------
+    A 16-bit imx174 saturates at its full well, 4,095 DN, long before 65,535:
+
+    >>> import camsim_core as cs
+    >>> round(recordable_level(cs.load_camera("imx174").replace(bits=16)))
+    4095
+    """
     full = camera.full_scale or 255.0
-    return camera.exposure * target * full / level
+    if camera.noise_model != "photon":
+        return full
+    gain = float(camera.analog_gain)
+    ceiling = (full - float(camera.black_level)) / gain  # the ADC's headroom above black, before the analog gain
+    if camera.full_well is not None:
+        ceiling = min(ceiling, float(camera.full_well) / float(camera.electrons_per_dn))
+    return ceiling
