@@ -99,3 +99,13 @@ def test_whole_frame_and_central_region_give_the_same_mtf50(name, f_stop):
     fc, mc = slanted_edge_mtf(centre, half_width=32)
     assert whole == pytest.approx(mtf50(fc, mc), rel=0.05)
     assert 0.05 < whole < 0.6
+
+
+def test_a_dim_coarsely_quantized_edge_is_measured_not_called_too_blurred():
+    # imx174 at 6 bits and a tenth of its exposure: a step of ~4 DN, whose ESF's ends scatter by more than
+    # 5 % of the step; that is noise, and the measure said the blur was too wide for its region
+    camera = load_camera("imx174").replace(height=480, width=640, bits=6)
+    opts = fitted_chart_options("slanted-edge", (480, 640), camera.angular_resolution, 3.32)
+    scene = load_scene(chart_name("slanted-edge", opts))
+    raw = simulate(scene, camera, distance=3.32, exposure=0.1 * auto_exposure(scene, camera, target=0.9), seed=1)
+    assert 0.1 < edge_mtf(demosaic(raw, "bilinear"))["luminance"]["mtf50"] < 0.45
