@@ -1228,7 +1228,8 @@ class CameraView:
             if t.ndim == 3:
                 t = t[..., 0]
             n, m = t.shape
-            self.tile_label.object = f"Mosaic tile ({n} x {m}; index:name, 0-based)"
+            # short enough for the tile's 280 px at presentation size; each cell reads "index:sensor" (0-based)
+            self.tile_label.object = f"Mosaic tile, {n} x {m}"
             self.tile_source.data = dict(
                 x=[j + 0.5 for i in range(n) for j in range(m)], y=[n - i - 0.5 for i in range(n) for j in range(m)],
                 color=[_hex(colors[t[i, j]]) for i in range(n) for j in range(m)],

@@ -171,6 +171,26 @@ _PLOT_TEXT_SIZES = """() => {
 }"""
 
 
+# JS: the explorer's one-line labels (``.camsim-label``) whose text is cut off (wider than their box)
+_LABELS_CUT = """() => {
+  const cut = []; let labels = 0;
+  const walk = (root) => {
+    for (const el of root.querySelectorAll('*')) {
+      if (el.classList && el.classList.contains('camsim-label') && el.shadowRoot) {
+        for (const d of el.shadowRoot.querySelectorAll('div')) {
+          if (getComputedStyle(d).whiteSpace !== 'nowrap' || !d.textContent.trim() || !d.getClientRects().length) continue;
+          labels++;
+          if (d.scrollWidth > d.clientWidth + 1) cut.push(d.textContent.trim());
+        }
+      }
+      if (el.shadowRoot) walk(el.shadowRoot);
+    }
+  };
+  walk(document);
+  return {labels, cut};
+}"""
+
+
 def test_presentation_mode_makes_every_control_and_plot_text_readable_at_1920(browser, server):
     """Defect 3: in presentation mode at 1920 x 1080, 43 of 44 controls kept 12.8-13.3 px text (a widget's
     style lives in its shadow root, out of the page's CSS) and plot tick labels about 10 px."""
@@ -195,6 +215,10 @@ def test_presentation_mode_makes_every_control_and_plot_text_readable_at_1920(br
         page.page.locator(".bk-tab").filter(has_text="Camera").first.click()
         _until(lambda: len(p := page.page.evaluate(_PLOT_TEXT_SIZES)) > len(plots) and all(px(v) >= 18 for _, v in p),
                "the Camera tab's plots in large text too")
+        # every one-line label shows its whole text (the mosaic tile's title was cut to "Mosaic tile (2 x 2; index:...")
+        labels = _until(lambda: (t := page.page.evaluate(_LABELS_CUT))["labels"] >= 2 and t,
+                        "the labels measured")
+        assert not labels["cut"], labels
         page.shot("presentation-1920")
         # and back: the sizes a page had before
         page.page.locator(".w-present button").first.click()
