@@ -354,6 +354,7 @@ def run(args):
     from .compat import build_off_loop as _build_off_loop  # pages built in a thread: the event loop serves the others meanwhile
 
     compat.apply()  # Panel's internals the explorer relies on: a warning in the log for each one missing
+    compat.hooks.served_without_cdn()  # a served page's files come from this server, whatever Panel's mode
     _build_off_loop.install()
     if not args.no_spare_page:
         from .compat import spare_session as _spare_session

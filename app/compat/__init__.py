@@ -13,7 +13,8 @@ checks the source of every other module). What is here, and why:
   Panel cannot parse kept as text (an HTTP 500 before), browser-side links
   of closed sessions dropped (a leak), changes Panel queued and forgot sent
   (lost updates), no 50 ms debounce, the address written once a result is
-  shown, a data-URI page icon, the Tornado application for the Host check.
+  shown, a data-URI page icon, the Tornado application for the Host check, and (for
+  ``camsim serve`` only) every page's files from this server, never Panel's CDN.
 
 Each checks, when applied, that the internal it needs is still there; when it
 is not, the explorer keeps Panel's own behaviour and :func:`apply` logs a
@@ -90,6 +91,7 @@ def apply():
         "plain_text": "text in PlainText panes may be shown as HTML",
         "address_writer": "the address is written at every change, before its result is shown",
         "tornado_app": "the Host header is not checked (DNS rebinding)",
+        "served_without_cdn": "a page may ask cdn.holoviz.org for its stylesheets",
         "skip_busy_tracking": "Panel's busy counter costs ~9 ms a change",
         "design_only_for_stylesheets": "Panel resolves design stylesheets on every change (~6 ms)",
         "build_off_loop": "pages are built on the event loop (1-1.4 s during which others wait)",

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import logging
 
-__all__ = ["pages_without_mathjax", "link_values_kept_as_text", "forget_js_links", "flush_stranded_writes",
+__all__ = ["served_without_cdn", "pages_without_mathjax", "link_values_kept_as_text", "forget_js_links", "flush_stranded_writes",
            "undelay", "DataURIFavicon", "address_writer", "tornado_app", "HOOKS"]
 
 _log = logging.getLogger("camsim.explorer")
@@ -177,6 +177,35 @@ def address_writer(location, state):
     return lambda query: update(query=query)
 
 
+def served_without_cdn():
+    """Panel's choice between its CDN and this server for the files a page loads is always this server.
+
+    Panel asks ``panel.io.resources.use_cdn()`` each time a component's stylesheets are made (its
+    loading spinner's CSS, a design's files); it reads Bokeh's process-wide resource mode, which
+    :func:`panel.io.resources.set_resource_mode` changes for the duration of a rendering. Twice, under
+    load, a page of the compare tab loaded 182 stylesheets from cdn.holoviz.org (refused by the page's
+    Content-Security-Policy, and unreachable without the internet); the mode was pinned to ``server``
+    (``camsim_explorer.serve.serve_resources_locally``) and it happened again. For ``camsim serve`` the
+    answer is always "this server". True when applied. Not applied in a notebook, which may use the CDN.
+    """
+    import panel.io.resources as resources
+    import panel.template.base as template
+
+    original = getattr(resources, "use_cdn", None)
+    if original is None or not hasattr(template, "use_cdn"):
+        return False
+    if getattr(original, "camsim", False):
+        return True
+
+    def use_cdn():
+        return False
+
+    use_cdn.camsim = True
+    use_cdn.original = original
+    resources.use_cdn = template.use_cdn = use_cdn
+    return True
+
+
 def tornado_app(server):
     """The Tornado application of a Bokeh server made by ``pn.serve(..., start=False)``, or None."""
     return getattr(server, "_tornado", None)
@@ -204,6 +233,8 @@ HOOKS = {
     "plain_text": lambda: _has("panel.pane", "Str", "_transform_object"),
     "address_writer": lambda: _has("panel.io.location", "Location", "_update_query")
     and hasattr(__import__("panel").io.location.Location(), "_synced"),
+    "served_without_cdn": lambda: _has("panel.io.resources", "use_cdn") and _has("panel.template.base", "use_cdn")
+    and "use_cdn()" in __import__("inspect").getsource(__import__("panel").io.resources.get_dist_path),
     "tornado_app": lambda: _has("bokeh.server.server", "Server") and "_tornado" in _init_names("bokeh.server.server", "BaseServer"),
 }
 

@@ -36,7 +36,8 @@ def test_every_hook_applies_to_the_installed_panel_and_bokeh():
     assert not missing, f"compat hooks that no longer apply: {missing} (see camsim_explorer/compat)"
     assert set(result) >= {"pages_without_mathjax", "link_values_kept_as_text", "forget_js_links",
                            "flush_stranded_writes", "undelay", "favicon_type", "address_writer", "tornado_app",
-                           "skip_busy_tracking", "design_only_for_stylesheets", "build_off_loop"}
+                           "skip_busy_tracking", "design_only_for_stylesheets", "build_off_loop",
+                           "served_without_cdn"}
 
 
 def test_panel_and_bokeh_are_releases_the_hooks_were_tested_with():
@@ -225,3 +226,19 @@ def test_the_server_serves_its_resources_itself_whatever_the_environment(monkeyp
         assert not use_cdn()  # ... restores the server's mode, not the environment's
     finally:
         settings.resources.unset_value()
+
+
+def test_a_served_page_never_asks_the_cdn_even_inside_a_cdn_rendering():
+    import panel.io.resources as resources
+    import panel.template.base as template
+
+    from camsim_explorer.compat import hooks
+
+    original = resources.use_cdn
+    try:
+        assert hooks.served_without_cdn()
+        with resources.set_resource_mode("cdn"):  # what a notebook rendering does, process-wide
+            assert not resources.use_cdn() and not template.use_cdn()
+            assert not resources.get_dist_path().startswith("http")
+    finally:
+        resources.use_cdn = template.use_cdn = getattr(original, "original", original)
