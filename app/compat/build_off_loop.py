@@ -89,10 +89,19 @@ def installed():
     return bool(_installed)
 
 
+#: One page built at a time, in either builder thread. Panel is not thread-safe while a document is built:
+#: ``param.edit_readonly`` lifts the read-only flag of the class's shared parameters for the time of an
+#: update, so two builds at once (a visitor's and a spare's) could find ``Location.hostname`` read-only
+#: again half-way ("Read-only parameter 'hostname' cannot be modified": the page never came, seen
+#: under load). The builds share one interpreter, so running them one after the other costs little.
+_BUILD_LOCK = threading.Lock()
+
+
 def _initialize(application, doc):
-    """Build ``doc`` (in the builder thread); the log says where and how long."""
-    t0 = time.perf_counter()
-    application.initialize_document(doc)
+    """Build ``doc`` (in a builder thread, one build at a time); the log says where and how long."""
+    with _BUILD_LOCK:
+        t0 = time.perf_counter()
+        application.initialize_document(doc)
     _log.info("a page built in %.0f ms in thread %s", 1000 * (time.perf_counter() - t0),
               threading.current_thread().name)
 

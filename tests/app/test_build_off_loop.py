@@ -77,3 +77,31 @@ def test_a_page_built_for_its_link_is_pulled_from_a_serialization_made_off_the_l
     assert answered == 1
     assert status is not None and status["params"]["noise_sigma"] == 3, status
     assert not status.get("computing") and status.get("mean_de", 0) > 0, status
+
+
+def test_two_pages_are_never_built_at_once():
+    # a visitor's page and a spare page were built in two threads at once, and Panel's param.edit_readonly
+    # (shared parameter flags) made one build fail: "Read-only parameter 'hostname' cannot be modified"
+    import threading
+    import time
+
+    from camsim_explorer.compat import build_off_loop as b
+
+    inside, most = [0], [0]
+    lock = threading.Lock()
+
+    class App:
+        def initialize_document(self, doc):
+            with lock:
+                inside[0] += 1
+                most[0] = max(most[0], inside[0])
+            time.sleep(0.05)
+            with lock:
+                inside[0] -= 1
+
+    threads = [threading.Thread(target=b._initialize, args=(App(), None)) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert most[0] == 1
