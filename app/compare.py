@@ -445,9 +445,7 @@ class CompareView:
             fn()
             return
         try:
-            # one message to the browser per update: each change sent alone made the page lay out and restyle
-            # its figures again (330 style recalculations, 1.5 s of the browser's time, for one pin)
-            doc.add_next_tick_callback(once(partial(_held, doc, fn)))  # arrays not kept once shown
+            doc.add_next_tick_callback(once(fn))  # designs' arrays not kept by the callback once shown
         except Exception:  # the session closed while a worker thread was computing: nothing to show
             if self._sweep_cancel is not None:
                 self._sweep_cancel.set()
@@ -789,12 +787,6 @@ class CompareView:
             self.sweep_message, self.sweep_area, self.show_status, self.status,
             name="Compare designs",
         )
-
-
-def _held(doc, fn):
-    """``fn()`` with the document's changes held and sent to the browser together."""
-    with pn.io.hold(doc):
-        fn()
 
 
 def compare_tab(state, when_shown=now):
