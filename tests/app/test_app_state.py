@@ -255,16 +255,14 @@ def test_sessions_compute_at_most_one_per_core_at_once_and_each_gets_its_result(
     """Ten sessions changing at once queue for the server's cores (``COMPUTE_SLOTS``) instead of running ten
     threads on two cores, and each still gets its own newest result."""
     from camsim_explorer.state import COMPUTE_SLOT_COUNT as slots
-    lock, running, most = threading.Lock(), [0], [0]
+    from overlap import Overlap
+
+    running = Overlap()
     delivered = []
 
     def compute(job):
-        with lock:
-            running[0] += 1
-            most[0] = max(most[0], running[0])
-        time.sleep(0.05)
-        with lock:
-            running[0] -= 1
+        with running:
+            time.sleep(0.05)
         return job
 
     runners = [Runner(compute, lambda job, out: delivered.append(out)) for _ in range(slots + 4)]
@@ -274,7 +272,7 @@ def test_sessions_compute_at_most_one_per_core_at_once_and_each_gets_its_result(
     while any(r.busy for r in runners) and time.monotonic() < deadline:
         time.sleep(0.01)
     assert sorted(delivered) == list(range(len(runners)))
-    assert most[0] == slots
+    assert running.most == slots
 
 
 def _background_state():

@@ -49,25 +49,21 @@ def test_outside_background_large_work_uses_the_pool():
 
 
 def test_two_background_jobs_never_overlap():
-    active, most = [0], [0]
-    lock = threading.Lock()
+    from overlap import Overlap
+
+    active = Overlap()
 
     def job():
         for _ in range(5):
-            with background():
-                with lock:
-                    active[0] += 1
-                    most[0] = max(most[0], active[0])
+            with background(), active:
                 time.sleep(0.005)
-                with lock:
-                    active[0] -= 1
 
     threads = [threading.Thread(target=job) for _ in range(4)]
     for t in threads:
         t.start()
     for t in threads:
         t.join(30)
-    assert most[0] == 1
+    assert active.most == 1
 
 
 def test_a_sweep_computes_its_points_as_background_work(monkeypatch):
