@@ -48,7 +48,7 @@ from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
 from .safe_text import PlainText, html_text, md_text
 from .shown import now
 from .state import short_repr
-from .views import once
+from .views import held, once
 
 hv.Store.set_current_backend("bokeh")
 
@@ -445,7 +445,8 @@ class CompareView:
             fn()
             return
         try:
-            doc.add_next_tick_callback(once(fn))  # designs' arrays not kept by the callback once shown
+            # designs' arrays not kept by the callback once shown; its changes sent in order (see ``held``)
+            doc.add_next_tick_callback(once(held(fn, doc)))
         except Exception:  # the session closed while a worker thread was computing: nothing to show
             if self._sweep_cancel is not None:
                 self._sweep_cancel.set()
@@ -496,7 +497,14 @@ class CompareView:
         return out + pinned
 
     def update(self):
-        """Show the current designs: images, histograms, table, A/B choices, status."""
+        """Show the current designs: images, histograms, table, A/B choices, status.
+
+        One batch of changes (``pn.io.hold``): the histogram is a Bokeh figure changed in place, and a change
+        sent outside Panel's queue could reach the page before the figure it changes (see ``views.held``)."""
+        with pn.io.hold(self._server_doc()):
+            self._update()
+
+    def _update(self):
         results = self.designs()
         metric = self.state.metric
         maps = [r.error_map(metric) for r in results if r.error_map(metric) is not None]

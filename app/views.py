@@ -15,7 +15,7 @@ import html
 import io
 import json
 import zlib
-from functools import lru_cache, partial
+from functools import lru_cache, partial, wraps
 
 import numpy as np
 import panel as pn
@@ -38,7 +38,7 @@ from .shown import now
 from .state import exposure_warnings, mean_level
 
 
-__all__ = ["sensor_colors", "scene_srgb", "raw_rgb", "planes_rgb", "rgba32", "screen_part", "histogram", "de_range",
+__all__ = ["held", "sensor_colors", "scene_srgb", "raw_rgb", "planes_rgb", "rgba32", "screen_part", "histogram", "de_range",
            "ResultsView", "SceneView", "CameraView"]
 
 #: The fixed dE colour scale (an option, for comparing designs); by default the scale follows the data.
@@ -91,6 +91,53 @@ def once(fn, *args):
             return f(*a)
 
     call.drop = parcel.clear  # for a callback that will never run (the session closed)
+    return call
+
+
+def held(fn, doc=None):
+    """``fn`` as a callback whose changes reach the page in the order they were made.
+
+    Bokeh sends a change made straight to one of its models (a figure's
+    data source, a legend's label) at once, while Panel queues its own
+    changes whenever a write to the page's websocket is under way. A change
+    to a model that a queued message brings to the page could then arrive
+    before the model itself: the browser drops it ("reference p2578 isn't
+    known", seen on the Compare tab's histogram under load). Inside
+    ``pn.io.hold`` both kinds go through Panel's queue, in order. The call
+    waits for the page to be ready (:func:`when_page_ready`), as every
+    held change must.
+
+    Parameters
+    ----------
+    fn : callable
+        A callback for the session's event loop (a Bokeh event handler, a
+        next-tick callback).
+    doc : bokeh.document.Document, optional
+        The session's document: give it when ``held`` is called outside the
+        session's thread (a worker thread); default ``pn.state.curdoc``.
+
+    Returns
+    -------
+    callable
+        ``fn`` with the same arguments, run inside ``pn.io.hold(doc)``.
+
+    Examples
+    --------
+    >>> calls = []
+    >>> held(calls.append)("shown")
+    >>> calls
+    ['shown']
+    """
+    doc = doc or pn.state.curdoc
+
+    @wraps(fn)  # Bokeh reads the handler's signature to know whether it takes the event
+    def call(*args, **kwargs):
+        def run():
+            with pn.io.hold(doc):
+                fn(*args, **kwargs)
+
+        when_page_ready(run)
+
     return call
 
 
@@ -604,7 +651,7 @@ class ResultsView:
         self.region = None
         self._full = {}  # key -> (display array, extra columns, sensor names) at full resolution
         self._screens = {}  # key -> (display array, side, its whole-image view): see _whole
-        self.figures["rendered"].on_event(RangesUpdate, self._on_ranges)  # one event per zoom or pan (ranges are shared)
+        self.figures["rendered"].on_event(RangesUpdate, held(self._on_ranges))  # one event per zoom or pan (ranges are shared)
         state.param.watch(self._on_state, ["result", "metric", "de_scale", "computing", "message"])
         state.preparers.append(self.prepare)
         self.update()
@@ -1032,8 +1079,8 @@ class SceneView:
                      line_color="color", line_width=2)
             fig.text(x="x", y="y", text="text", source=self.marks, text_color="color", text_font_size="14pt",
                      text_font_style="bold", x_offset=6, y_offset=-4, text_outline_color="white")
-            fig.on_event(Tap, self._on_tap)
-            fig.on_event(SelectionGeometry, self._on_box)
+            fig.on_event(Tap, held(self._on_tap))
+            fig.on_event(SelectionGeometry, held(self._on_box))
             self.figures[key] = fig
         self.spectra = []  # (scene, row0, row1, col0, col1)
         self.curves = ColumnDataSource(dict(xs=[], ys=[], color=[], label=[]))

@@ -47,6 +47,20 @@ def _walk(node, found):
             _walk(v, found)
 
 
+def _references(node, found):
+    """The ids of the models ``node`` refers to (``{"id": ...}``), not counting binary buffers."""
+    if isinstance(node, dict):
+        if node.get("type") == "bytes":
+            return
+        if set(node) == {"id"}:
+            found.add(node["id"])
+        for v in node.values():
+            _references(v, found)
+    elif isinstance(node, list):
+        for v in node:
+            _references(v, found)
+
+
 def _status(text):
     """The status pane's JSON from its model's text (Panel escapes the pane's HTML once more for its model:
     unescape, drop <pre>, unescape the JSON); None when it is not JSON."""
@@ -67,6 +81,10 @@ class WsSession:
         self.models = {}
         self.status_id = None
         self.statuses = []  # (monotonic s, status dict) as they arrive
+        #: (message number, ids) of each message that referred to models not sent before it (the browser
+        #: drops such a change with "reference ... isn't known"): empty when the server keeps its order
+        self.unknown_references = []
+        self.patches = 0
         self._reader = None
 
     @classmethod
@@ -126,12 +144,24 @@ class WsSession:
                 return
             if header["msgtype"] != "PATCH-DOC":
                 continue
+            self.patches += 1
+            _walk(content, self.models)
+            used = set()
+            _references(content, used)
+            if used - self.models.keys():
+                self.unknown_references.append((self.patches, sorted(used - self.models.keys())))
             for event in content.get("events", []):
+                if event.get("kind") == "ModelChanged" and "id" in event.get("model", {}):
+                    self.models.get(event["model"]["id"], {}).setdefault("attributes", {})[event["attr"]] = event["new"]
                 if event.get("kind") == "ModelChanged" and event.get("model", {}).get("id") == self.status_id \
                         and event.get("attr") == "text":
                     status = _status(event["new"])
                     if status is not None:
                         self.statuses.append((time.monotonic(), status))
+
+    def text(self, css, kind="HTML"):
+        """The latest text of the model with CSS class ``css`` (as pulled, then as changed); "" when none."""
+        return self.models[self.find(css, kind)].get("attributes", {}).get("text", "") or ""
 
     def pulled_status(self):
         """The status the page's document held when it was pulled (a dict; None when it held none)."""
@@ -144,6 +174,23 @@ class WsSession:
         await self._send("PATCH-DOC", {"events": [{"kind": "ModelChanged", "model": {"id": model},
                                                    "attr": "value", "new": value}]})
         return sent
+
+    async def click(self, css):
+        """Click the button with CSS class ``css`` as the browser does (it must have been sent already)."""
+        await self._send("PATCH-DOC", {"events": [{"kind": "MessageSent", "msg_type": "bokeh_event", "msg_data": {
+            "type": "event", "name": "button_click",
+            "values": {"type": "map", "entries": [["model", {"id": self.find(css, "Button")}]]}}}]})
+
+    async def wait_for_model(self, css, kind=None, timeout=60.0):
+        """Wait until the model with CSS class ``css`` has been sent (a tab's contents come when it opens)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                return self.find(css, kind)
+            except LookupError:
+                if time.monotonic() > deadline:
+                    raise
+                await asyncio.sleep(0.02)
 
     async def shown(self, name, value, sent, timeout=120.0):
         """Seconds from ``sent`` to the first status showing parameter ``name`` at ``value`` (not computing)."""

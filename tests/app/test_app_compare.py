@@ -168,3 +168,33 @@ def test_the_live_design_skips_the_quality_measures_but_its_report_has_them():
     page = view.report_bytes().getvalue().decode()
     alone = evaluate_design(state.design_params(), "live")
     assert f'data-value="{alone.quality["psnr_db"]!r}"' in page and f'data-value="{alone.quality["ssim"]!r}"' in page
+
+
+def test_the_histogram_changes_in_one_held_batch(monkeypatch):
+    """The histogram is a Bokeh figure changed in place. On a server, a change made outside ``pn.io.hold`` goes
+    to the page at once while Panel may still queue the message that brings the figure (a write under way):
+    the browser then drops it ("reference p2578 isn't known", seen in the browser fuzz under load). Every
+    change to it must therefore be made while the document is held."""
+    from bokeh.document import Document
+    from panel.io.state import set_curdoc
+
+    import camsim_explorer.compare as module
+
+    doc = Document()
+    holds = []
+    real = module.HistogramPlot.update
+
+    def spy(self, *args, **kwargs):
+        holds.append(doc.callbacks.hold_value)
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(module.HistogramPlot, "update", spy)
+    with set_curdoc(doc):
+        state = ExplorerState()
+        view = CompareView(state)
+        view.pin("DCS-200")
+        state.camera = "human-cones"
+        view.pin("cones")
+        view.unpin("cones")
+    assert len(holds) >= 3 and all(h is not None for h in holds), holds
+    assert doc.callbacks.hold_value is None  # and let go of afterwards
