@@ -55,9 +55,27 @@ def browser():
         b.close()
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def server():
-    """``camsim serve`` on 127.0.0.1, one per test module (files that need other flags start their own)."""
+    """``camsim serve`` on 127.0.0.1 with its default flags, shared by the test files of a worker.
+
+    Each page is a session of its own, so tests on one server do not see each
+    other's designs; a server costs about 9 s of CPU to start (imports, the
+    first page built in advance), paid once per worker instead of once per
+    file. Files that need other flags, or a server no other test has used
+    (counts of pages built, a log with nothing else in it), use
+    ``own_server`` or start their own with ``app_helpers.explorer_server``.
+    """
+    from app_helpers import ARTIFACTS, explorer_server
+
+    ARTIFACTS.mkdir(exist_ok=True)
+    with explorer_server() as url:
+        yield url
+
+
+@pytest.fixture(scope="module")
+def own_server():
+    """``camsim serve`` with its default flags for this test file alone."""
     from app_helpers import ARTIFACTS, explorer_server
 
     ARTIFACTS.mkdir(exist_ok=True)

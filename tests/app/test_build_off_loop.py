@@ -46,7 +46,7 @@ def _count(log_path, text):
 
 
 @pytest.mark.slow
-def test_a_page_built_for_its_link_is_pulled_from_a_serialization_made_off_the_loop():
+def test_a_page_built_for_its_link_is_pulled_from_a_serialization_made_off_the_loop(own_server):
     """A link's page (never a spare) is serialized in the builder thread once its first result is in; the
     browser's pull then gets that serialization, a complete document with the result, instead of the event
     loop serializing it while every other page waits."""
@@ -54,26 +54,27 @@ def test_a_page_built_for_its_link_is_pulled_from_a_serialization_made_off_the_l
 
     from ws_session import WsSession
 
-    ARTIFACTS.mkdir(exist_ok=True)
-    with explorer_server() as url:
-        log_path = ARTIFACTS / f"server-{url.rsplit(':', 1)[1].strip('/')}.log"
-        link = url + "?noise_sigma=3"
-        before = _count(log_path, "serialized off the event loop")
-        page = urllib.request.urlopen(link, timeout=90).read().decode()  # the session is built for the link
-        deadline = time.monotonic() + 60
-        while _count(log_path, "serialized off the event loop") == before:
-            assert time.monotonic() < deadline, "the link's page was not serialized off the event loop"
-            time.sleep(0.05)
+    url = own_server
+    # a server of its own: the counts are of this test's page alone
+    log_path = ARTIFACTS / f"server-{url.rsplit(':', 1)[1].strip('/')}.log"
+    link = url + "?noise_sigma=3"
+    before = _count(log_path, "serialized off the event loop")
+    answered_before = _count(log_path, "answered with its serialization made off the event loop")
+    page = urllib.request.urlopen(link, timeout=90).read().decode()  # the session is built for the link
+    deadline = time.monotonic() + 60
+    while _count(log_path, "serialized off the event loop") == before:
+        assert time.monotonic() < deadline, "the link's page was not serialized off the event loop"
+        time.sleep(0.05)
 
-        async def pull():  # what the page's scripts do once loaded: open the websocket and pull the document
-            session = await WsSession.open(link, page=page)
-            try:
-                return session.pulled_status()
-            finally:
-                await session.close()
+    async def pull():  # what the page's scripts do once loaded: open the websocket and pull the document
+        session = await WsSession.open(link, page=page)
+        try:
+            return session.pulled_status()
+        finally:
+            await session.close()
 
-        status = asyncio.run(pull())
-        answered = _count(log_path, "answered with its serialization made off the event loop")
+    status = asyncio.run(pull())
+    answered = _count(log_path, "answered with its serialization made off the event loop") - answered_before
     assert answered == 1
     assert status is not None and status["params"]["noise_sigma"] == 3, status
     assert not status.get("computing") and status.get("mean_de", 0) > 0, status

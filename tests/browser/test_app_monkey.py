@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from app_helpers import (ARTIFACTS, CHROMIUM_ARGS, FIGURES_JS, IMAGE_VIEWS, Page, chromium_path, eventually,
-                         explorer_server, figures, next_frames, shows_whole_image)
+from app_helpers import (ARTIFACTS, CHROMIUM_ARGS, FIGURES_JS, IMAGE_VIEWS, Page, chromium_path, eventually, figures,
+                         next_frames, shows_whole_image)
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
 pytestmark = pytest.mark.browser
@@ -113,12 +113,13 @@ def _views_show_the_image(page, status, step, settle=20.0):
     eventually(check, timeout=settle)
 
 
-def test_random_walk_over_the_controls():
+def test_random_walk_over_the_controls(server):
     rng = random.Random(SEED)
     ARTIFACTS.mkdir(exist_ok=True)
     from playwright.sync_api import sync_playwright
 
-    with explorer_server() as url, sync_playwright() as p:
+    url = server
+    with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=chromium_path(), args=CHROMIUM_ARGS)
         page = Page(browser, url)
         page.page.set_viewport_size({"width": 1920, "height": 1080})

@@ -15,6 +15,12 @@ from app_helpers import (ARTIFACTS, POLL, Page, background_share, eventually, ex
 pytestmark = pytest.mark.browser
 
 
+@pytest.fixture(scope="module")
+def server(own_server):
+    """A server of this file's own: its tests count the pages it builds in advance."""
+    return own_server
+
+
 def test_a_first_result_landing_while_the_page_renders_is_shown(browser):
     """The first result arrives just after the browser pulled the page, before it reports ready
     (a slow first computation, e.g. a cold start): it must still reach the screen."""
