@@ -25,9 +25,11 @@ from __future__ import annotations
 
 import itertools
 import json
+import logging
 import math
 import os
 import threading
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -937,14 +939,41 @@ COMPUTE_SLOTS = threading.BoundedSemaphore(COMPUTE_SLOT_COUNT)
 COMPUTE_NICE = 5
 
 
-class Runner:
-    """Computes a session's results in one background thread; only the newest request is computed.
+#: The threads that run the sessions' computations, kept between bursts. A thread started per burst made the
+#: event loop wait for it to start (``Thread.start`` waits for the new thread to run, which needs the GIL
+#: that computing threads hold): 243 ms in the hostile load test. More threads than slots: a session waiting
+#: for a slot holds one, and every slot can still be taken.
+SESSION_THREAD_COUNT = max(32, 4 * COMPUTE_SLOT_COUNT)
+SESSION_THREADS = ThreadPoolExecutor(SESSION_THREAD_COUNT, thread_name_prefix="camsim-session")
 
-    ``submit(job)`` returns at once. A worker thread (started when needed,
-    ending when idle) runs ``compute(job)`` and hands ``(job, outcome)`` to
-    ``deliver``; jobs submitted while it computes replace each other, so after
-    a burst of changes only the last is computed, and an outcome that a newer
-    job has made obsolete is not delivered.
+
+def start_session_threads(timeout=30.0):
+    """Start every thread of :data:`SESSION_THREADS` now; a server calls this before it serves.
+
+    The pool otherwise grows on the event loop, one thread per session
+    computing at once for the first time, each start waiting for the GIL
+    (174 ms for the first burst of ten sessions in the hostile load test).
+
+    Returns
+    -------
+    int
+        The number of threads running for the sessions.
+    """
+    gate = threading.Barrier(SESSION_THREAD_COUNT, timeout=timeout)
+    waits = [SESSION_THREADS.submit(gate.wait) for _ in range(SESSION_THREAD_COUNT)]
+    for w in waits:  # each task holds its thread until all are in: the pool grows to its full size
+        w.result()
+    return SESSION_THREAD_COUNT
+
+
+class Runner:
+    """Computes a session's results in a background thread; only the newest request is computed.
+
+    ``submit(job)`` returns at once. A thread of :data:`SESSION_THREADS`
+    runs ``compute(job)`` and hands ``(job, outcome)`` to ``deliver``; jobs
+    submitted while it computes replace each other, so after a burst of
+    changes only the last is computed, and an outcome that a newer job has
+    made obsolete is not delivered.
     """
 
     def __init__(self, compute, deliver):
@@ -960,7 +989,15 @@ class Runner:
             if self.busy:
                 return
             self.busy = True
-        threading.Thread(target=self._loop, name="camsim-session", daemon=True).start()
+        SESSION_THREADS.submit(self._run)
+
+    def _run(self):
+        try:
+            self._loop()
+        except BaseException:  # a pool's thread would keep it silently, and the session would never compute again
+            logging.getLogger("camsim.explorer").exception("a session's computation failed")
+            with self._lock:
+                self._pending, self.busy = None, False
 
     def _loop(self):
         try:  # below the event loop's thread: it serves every page, and its callbacks are short

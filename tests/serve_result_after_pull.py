@@ -33,7 +33,7 @@ def _pull_then_release(cls, message, connection):
 
 def _run_then_wait_for_pull(self, *args, **kwargs):
     result = _run(self, *args, **kwargs)
-    if threading.current_thread().name == "camsim-session":  # a page's run, not the server's warm-up
+    if threading.current_thread().name.startswith("camsim-session"):  # a page's run, not the server's warm-up
         PULLED.wait(timeout=120)
     return result
 

@@ -275,6 +275,55 @@ def test_sessions_compute_at_most_one_per_core_at_once_and_each_gets_its_result(
     assert running.most == slots
 
 
+def test_a_submit_starts_no_thread_once_the_sessions_threads_exist():
+    """``submit`` runs on the event loop: starting a thread there waits for the thread to run, which needs the
+    GIL that computing threads hold (243 ms in the hostile load test). The sessions' threads are kept."""
+    done = threading.Event()
+    runner = Runner(lambda job: job, lambda job, out: done.set())
+    runner.submit(0)  # the pool may grow here, once
+    assert done.wait(10)
+    while runner.busy:
+        time.sleep(0.01)
+    started = []
+    real_start = threading.Thread.start
+
+    def spy(self):
+        started.append(self.name)
+        return real_start(self)
+
+    threading.Thread.start = spy
+    try:
+        for k in range(20):
+            done.clear()
+            runner.submit(k)
+            assert done.wait(10)
+            while runner.busy:
+                time.sleep(0.01)
+    finally:
+        threading.Thread.start = real_start
+    assert started == []
+
+
+def test_a_computation_that_raises_leaves_the_session_able_to_compute(caplog):
+    outcomes = []
+
+    def compute(job):
+        if job == "bad":
+            raise RuntimeError("a bug")
+        return job
+
+    runner = Runner(compute, lambda job, out: outcomes.append(out))
+    runner.submit("bad")
+    deadline = time.monotonic() + 10
+    while runner.busy and time.monotonic() < deadline:
+        time.sleep(0.01)
+    runner.submit("good")
+    while "good" not in outcomes and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert outcomes == ["good"]
+    assert any("computation failed" in r.getMessage() for r in caplog.records)
+
+
 def _background_state():
     state = ExplorerState(start=False)
     state.set_runner(Runner(state._compute, state._apply))  # deliver in the worker: no event loop here
