@@ -300,7 +300,7 @@ def _controls(state, results):
             except Exception:  # the session closed while the file was read: nothing to show
                 pass
 
-        threading.Thread(target=read, name="camsim-upload", daemon=True).start()
+        state_module.UPLOAD_THREADS.submit(read)  # a thread kept for reads: starting one here waits for the GIL
 
     def on_refused(event):
         if upload.refused:

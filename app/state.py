@@ -945,25 +945,33 @@ COMPUTE_NICE = 5
 #: for a slot holds one, and every slot can still be taken.
 SESSION_THREAD_COUNT = max(32, 4 * COMPUTE_SLOT_COUNT)
 SESSION_THREADS = ThreadPoolExecutor(SESSION_THREAD_COUNT, thread_name_prefix="camsim-session")
+#: The threads that wait for uploads being read (each read runs in a worker process of its own,
+#: ``camsim_core.io.isolated``); more uploads at once queue for them.
+UPLOAD_THREAD_COUNT = 4
+UPLOAD_THREADS = ThreadPoolExecutor(UPLOAD_THREAD_COUNT, thread_name_prefix="camsim-upload")
 
 
 def start_session_threads(timeout=30.0):
-    """Start every thread of :data:`SESSION_THREADS` now; a server calls this before it serves.
+    """Start every thread of :data:`SESSION_THREADS` and :data:`UPLOAD_THREADS` now; a server calls this
+    before it serves.
 
-    The pool otherwise grows on the event loop, one thread per session
-    computing at once for the first time, each start waiting for the GIL
-    (174 ms for the first burst of ten sessions in the hostile load test).
+    A pool otherwise grows on the event loop, one thread per session
+    computing (or upload read) at once for the first time, each start
+    waiting for the GIL (174 ms for the first burst of ten sessions in the
+    hostile load test, 103 ms for an upload).
 
     Returns
     -------
     int
-        The number of threads running for the sessions.
+        The number of threads started.
     """
-    gate = threading.Barrier(SESSION_THREAD_COUNT, timeout=timeout)
-    waits = [SESSION_THREADS.submit(gate.wait) for _ in range(SESSION_THREAD_COUNT)]
-    for w in waits:  # each task holds its thread until all are in: the pool grows to its full size
+    waits = []
+    for pool, count in ((SESSION_THREADS, SESSION_THREAD_COUNT), (UPLOAD_THREADS, UPLOAD_THREAD_COUNT)):
+        gate = threading.Barrier(count, timeout=timeout)
+        waits += [pool.submit(gate.wait) for _ in range(count)]
+    for w in waits:  # each task holds its thread until all of its pool's are in: the pool grows to its full size
         w.result()
-    return SESSION_THREAD_COUNT
+    return SESSION_THREAD_COUNT + UPLOAD_THREAD_COUNT
 
 
 class Runner:

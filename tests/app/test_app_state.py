@@ -304,6 +304,31 @@ def test_a_submit_starts_no_thread_once_the_sessions_threads_exist():
     assert started == []
 
 
+def test_a_server_starts_the_threads_its_sessions_and_uploads_use_before_it_serves():
+    """``camsim serve`` calls ``start_session_threads``: afterwards as many sessions computing, and uploads
+    read, at once as the pools hold start no thread (a start on the event loop waits for the GIL)."""
+    from camsim_explorer import state as module
+
+    assert module.start_session_threads() == module.SESSION_THREAD_COUNT + module.UPLOAD_THREAD_COUNT
+    started = []
+    real_start = threading.Thread.start
+
+    def spy(self):
+        started.append(self.name)
+        return real_start(self)
+
+    threading.Thread.start = spy
+    try:
+        for pool, count in ((module.SESSION_THREADS, module.SESSION_THREAD_COUNT),
+                            (module.UPLOAD_THREADS, module.UPLOAD_THREAD_COUNT)):
+            gate = threading.Barrier(count, timeout=10)  # all of them busy at once
+            for w in [pool.submit(gate.wait) for _ in range(count)]:
+                w.result()
+    finally:
+        threading.Thread.start = real_start
+    assert started == []
+
+
 def test_a_computation_that_raises_leaves_the_session_able_to_compute(caplog):
     outcomes = []
 
