@@ -103,3 +103,31 @@ def test_two_pages_are_never_built_at_once():
     for t in threads:
         t.join()
     assert building.most == 1
+
+
+@pytest.mark.slow
+def test_a_pull_that_comes_before_the_pages_serialization_waits_for_it_off_the_loop(own_server):
+    """A page built for its request whose browser pulls at once (a class arriving together: its first result
+    queued for the cores) gets its first result in the pull, serialized in the builder thread; before, the
+    pull was serialized on the event loop (200-560 ms stalls per page in the hostile load test)."""
+    import asyncio
+
+    from ws_session import WsSession
+
+    log_path = ARTIFACTS / f"server-{own_server.rsplit(':', 1)[1].strip('/')}.log"
+    words = "pull came first and was answered with a serialization made off the event loop"
+    before = _count(log_path, words)
+    link = own_server + "?noise_sigma=4"
+
+    async def pull():  # no wait between the page and its pull
+        page = await asyncio.to_thread(lambda: urllib.request.urlopen(link, timeout=90).read().decode())
+        session = await WsSession.open(link, page=page)
+        try:
+            return session.pulled_status()
+        finally:
+            await session.close()
+
+    status = asyncio.run(pull())
+    assert _count(log_path, words) - before == 1
+    assert status is not None and status["params"]["noise_sigma"] == 4, status
+    assert not status.get("computing") and status.get("mean_de", 0) > 0, status
