@@ -219,6 +219,7 @@ def test_viewing_is_a_state_parameter_that_sets_scielab_samples_per_degree(state
 
 
 # -- background computation, refusals, warnings ---------------------------------
+import contextlib  # noqa: E402
 import threading  # noqa: E402
 import time  # noqa: E402
 
@@ -275,6 +276,23 @@ def test_sessions_compute_at_most_one_per_core_at_once_and_each_gets_its_result(
     assert running.most == slots
 
 
+@contextlib.contextmanager
+def _threads_started():
+    """The names of the threads started in the block (a list, filled as they start)."""
+    started = []
+    real_start = threading.Thread.start
+
+    def spy(self):
+        started.append(self.name)
+        return real_start(self)
+
+    threading.Thread.start = spy
+    try:
+        yield started
+    finally:
+        threading.Thread.start = real_start
+
+
 def test_a_submit_starts_no_thread_once_the_sessions_threads_exist():
     """``submit`` runs on the event loop: starting a thread there waits for the thread to run, which needs the
     GIL that computing threads hold (243 ms in the hostile load test). The sessions' threads are kept."""
@@ -284,23 +302,13 @@ def test_a_submit_starts_no_thread_once_the_sessions_threads_exist():
     assert done.wait(10)
     while runner.busy:
         time.sleep(0.01)
-    started = []
-    real_start = threading.Thread.start
-
-    def spy(self):
-        started.append(self.name)
-        return real_start(self)
-
-    threading.Thread.start = spy
-    try:
+    with _threads_started() as started:
         for k in range(20):
             done.clear()
             runner.submit(k)
             assert done.wait(10)
             while runner.busy:
                 time.sleep(0.01)
-    finally:
-        threading.Thread.start = real_start
     assert started == []
 
 
@@ -310,22 +318,12 @@ def test_a_server_starts_the_threads_its_sessions_and_uploads_use_before_it_serv
     from camsim_explorer import state as module
 
     assert module.start_session_threads() == module.SESSION_THREAD_COUNT + module.UPLOAD_THREAD_COUNT
-    started = []
-    real_start = threading.Thread.start
-
-    def spy(self):
-        started.append(self.name)
-        return real_start(self)
-
-    threading.Thread.start = spy
-    try:
+    with _threads_started() as started:
         for pool, count in ((module.SESSION_THREADS, module.SESSION_THREAD_COUNT),
                             (module.UPLOAD_THREADS, module.UPLOAD_THREAD_COUNT)):
             gate = threading.Barrier(count, timeout=10)  # all of them busy at once
             for w in [pool.submit(gate.wait) for _ in range(count)]:
                 w.result()
-    finally:
-        threading.Thread.start = real_start
     assert started == []
 
 

@@ -41,6 +41,17 @@ def test_a_served_page_is_built_in_the_builder_thread():
 
 
 
+async def _pulled(link, page):
+    """Open the websocket of ``page`` (its HTML, fetched from ``link``), pull the document: its status."""
+    from ws_session import WsSession
+
+    session = await WsSession.open(link, page=page)
+    try:
+        return session.pulled_status()
+    finally:
+        await session.close()
+
+
 def _count(log_path, text):
     return log_path.read_text(errors="replace").count(text)
 
@@ -51,8 +62,6 @@ def test_a_page_built_for_its_link_is_pulled_from_a_serialization_made_off_the_l
     browser's pull then gets that serialization, a complete document with the result, instead of the event
     loop serializing it while every other page waits."""
     import asyncio
-
-    from ws_session import WsSession
 
     url = own_server
     # a server of its own: the counts are of this test's page alone
@@ -66,14 +75,7 @@ def test_a_page_built_for_its_link_is_pulled_from_a_serialization_made_off_the_l
         assert time.monotonic() < deadline, "the link's page was not serialized off the event loop"
         time.sleep(0.05)
 
-    async def pull():  # what the page's scripts do once loaded: open the websocket and pull the document
-        session = await WsSession.open(link, page=page)
-        try:
-            return session.pulled_status()
-        finally:
-            await session.close()
-
-    status = asyncio.run(pull())
+    status = asyncio.run(_pulled(link, page))  # what the page's scripts do once loaded
     answered = _count(log_path, "answered with its serialization made off the event loop") - answered_before
     assert answered == 1
     assert status is not None and status["params"]["noise_sigma"] == 3, status
@@ -112,7 +114,6 @@ def test_a_pull_that_comes_before_the_pages_serialization_waits_for_it_off_the_l
     pull was serialized on the event loop (200-560 ms stalls per page in the hostile load test)."""
     import asyncio
 
-    from ws_session import WsSession
 
     log_path = ARTIFACTS / f"server-{own_server.rsplit(':', 1)[1].strip('/')}.log"
     words = "pull came first and was answered with a serialization made off the event loop"
@@ -121,11 +122,7 @@ def test_a_pull_that_comes_before_the_pages_serialization_waits_for_it_off_the_l
 
     async def pull():  # no wait between the page and its pull
         page = await asyncio.to_thread(lambda: urllib.request.urlopen(link, timeout=90).read().decode())
-        session = await WsSession.open(link, page=page)
-        try:
-            return session.pulled_status()
-        finally:
-            await session.close()
+        return await _pulled(link, page)
 
     status = asyncio.run(pull())
     assert _count(log_path, words) - before == 1
