@@ -114,7 +114,6 @@ def test_a_pull_that_comes_before_the_pages_serialization_waits_for_it_off_the_l
     pull was serialized on the event loop (200-560 ms stalls per page in the hostile load test)."""
     import asyncio
 
-
     log_path = ARTIFACTS / f"server-{own_server.rsplit(':', 1)[1].strip('/')}.log"
     words = "pull came first and was answered with a serialization made off the event loop"
     before = _count(log_path, words)
