@@ -48,7 +48,7 @@ from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
 from .safe_text import PlainText, html_text, md_text
 from .shown import now
 from .state import short_repr
-from .views import held, once
+from .views import once
 
 hv.Store.set_current_backend("bokeh")
 
@@ -445,8 +445,7 @@ class CompareView:
             fn()
             return
         try:
-            # designs' arrays not kept by the callback once shown; its changes sent in order (see ``held``)
-            doc.add_next_tick_callback(once(held(fn, doc)))
+            doc.add_next_tick_callback(once(fn))  # designs' arrays not kept by the callback once shown
         except Exception:  # the session closed while a worker thread was computing: nothing to show
             if self._sweep_cancel is not None:
                 self._sweep_cancel.set()
