@@ -40,7 +40,7 @@ from .shown import WhenShown, now
 from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, VIEW_PARAMETERS, ExplorerState, Runner
 from .typed_text import TypedTextWatch
 from .upload import BoundedUpload
-from .views import CameraView, ResultsView, SceneView, Text, _after, held, once, when_page_ready
+from .views import CameraView, ResultsView, SceneView, Text, _after, once, when_page_ready
 
 __all__ = ["create_app", "DEFAULT_SCENE", "configure", "LIVE_STATES", "live_states", "TABS"]
 
@@ -207,7 +207,7 @@ def _later(fn):
     """Run ``fn`` on the next tick of this session's event loop (now, outside a server)."""
     doc = pn.state.curdoc
     if doc is not None and doc.session_context is not None:
-        doc.add_next_tick_callback(held(fn, doc))  # its changes sent in order with Panel's (see ``held``)
+        doc.add_next_tick_callback(fn)
     else:
         fn()
 

@@ -246,9 +246,7 @@ def _collect_and_trim_once_quiet(libc, quiet_s=None):
     def collect_and_trim():
         pending.clear()
         t0 = time.perf_counter()
-        gc.unfreeze()  # the closed sessions' pages were left out of collections when built (see below)
         freed = gc.collect()
-        gc.freeze()  # what lives on (the other sessions, the start-up objects), out of them again
         if libc is not None:
             libc.malloc_trim(0)
         logging.getLogger("camsim.explorer").info("after closed sessions: %d objects collected, heaps trimmed, in %.0f ms",
@@ -261,24 +259,6 @@ def _collect_and_trim_once_quiet(libc, quiet_s=None):
         pending[:] = [loop.call_later(QUIET_S if quiet_s is None else quiet_s, collect_and_trim)]
 
     return schedule
-
-
-def _leave_pages_out_of_collections():
-    """After each page is built: its objects (Bokeh models, Panel's, the state's: about 60,000) join the ones
-    no automatic garbage collection walks (``gc.freeze``).
-
-    Python's full collections walk every object it tracks; with ten sessions open that took 115-216 ms
-    every few seconds under load, each an event-loop stall for every page. A session's page lives until it
-    is closed, so walking it finds nothing; the closed pages are collected once the closes stop
-    (:func:`_collect_and_trim_once_quiet` unfreezes, collects, freezes again). Garbage that was waiting
-    for a collection when a page was built waits with the page until then.
-    """
-    import gc
-
-    from .compat import build_off_loop
-
-    if gc.freeze not in build_off_loop.AFTER_BUILD:
-        build_off_loop.AFTER_BUILD.append(gc.freeze)
 
 
 def _log_to_stderr():
@@ -359,8 +339,7 @@ def run(args):
 
     if libc is not None:
         main.AFTER_RELEASE.append(lambda: libc.malloc_trim(0))
-    main.AFTER_RELEASE.append(_collect_and_trim_once_quiet(libc))  # and pages are left out of collections:
-    _leave_pages_out_of_collections()  # each collects what the other leaves
+    main.AFTER_RELEASE.append(_collect_and_trim_once_quiet(libc))
 
     limits = limits_from(args)
     main.configure(scene, limits=limits, upload=not args.no_upload)

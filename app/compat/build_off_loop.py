@@ -97,18 +97,11 @@ def installed():
 _BUILD_LOCK = threading.Lock()
 
 
-#: Called (no arguments, in the builder thread) after each page's document is built: ``camsim serve`` leaves
-#: the page's objects out of later garbage collections here (``serve._leave_pages_out_of_collections``).
-AFTER_BUILD = []
-
-
 def _initialize(application, doc):
     """Build ``doc`` (in a builder thread, one build at a time); the log says where and how long."""
     with _BUILD_LOCK:
         t0 = time.perf_counter()
         application.initialize_document(doc)
-        for hook in AFTER_BUILD:
-            hook()
     _log.info("a page built in %.0f ms in thread %s", 1000 * (time.perf_counter() - t0),
               threading.current_thread().name)
 
