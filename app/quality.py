@@ -13,12 +13,14 @@ from __future__ import annotations
 import holoviews as hv
 import numpy as np
 import panel as pn
+import param
 
 from camsim_core.errors import CamsimError
 from camsim_core.metrics.report import default_measures, measure_images
 
 from .safe_text import md_text
 from .shown import now
+from .state import ExplorerState
 
 __all__ = ["QualityView", "measures_for", "channel_colours", "CHANNEL_COLOURS"]
 
@@ -81,20 +83,45 @@ def _color_table(color):
             f"max {color['max']:.2f}\n\n| | | | | | |\n|---|---|---|---|---|---|\n" + "\n".join(rows))
 
 
-class QualityView:
-    """MTF curve, SNR table, patch dE table and similarity line, following the state's result."""
+class QualityView(pn.viewable.Viewer):
+    """MTF curve, SNR table, patch dE table and similarity line, following the state's result.
 
-    def __init__(self, state, when_shown=now):
-        self.state = state
+    A Panel component (``pn.viewable.Viewer``): shown as it is, or with :meth:`panel`. It updates when the
+    state's result changes (``param.depends("state.result")``), through ``when_shown``: at once while its
+    tab is shown, once when the tab is next shown otherwise (:class:`~camsim_explorer.shown.WhenShown`).
+
+    Parameters
+    ----------
+    state : ExplorerState
+        The session's state, whose pipeline result is measured.
+    when_shown : callable, optional
+        The tab's gate: ``when_shown(fn)`` is ``fn`` run now or when the tab is shown.
+
+    Examples
+    --------
+    >>> from camsim_explorer.state import ExplorerState
+    >>> view = QualityView(ExplorerState())
+    >>> "similarity" in view.report and "mtf" not in view.report  # the default scene: no slanted edge
+    True
+    """
+
+    state = param.ClassSelector(class_=ExplorerState, doc="The session's state: its result is measured.")
+
+    def __init__(self, state, when_shown=now, **params):
         self.report = {}
         self.mtf_plot = pn.pane.HoloViews(_mtf_plot({}), linked_axes=False)
         # shown and hidden as a whole: a HoloViews pane's own ``visible``, set after its plot was replaced, makes
         # Panel (1.9) pass its layout parameters to the Bokeh figure, which refuses ``design`` (the tab broke)
         self.mtf = pn.Column(self.mtf_plot, css_classes=["camsim-mtf"], visible=False, margin=0)
         self.text = pn.pane.Markdown("", css_classes=["camsim-quality"], sizing_mode="stretch_width")
-        update = when_shown(self.update)
-        state.param.watch(lambda e: update(), ["result"])
+        self._update_when_shown = when_shown(self.update)
+        super().__init__(state=state, **params)
+        self._layout = pn.Column(self.mtf, self.text, name="Image quality", sizing_mode="stretch_width")
         self.update()
+
+    @param.depends("state.result", watch=True)
+    def _on_result(self):
+        self._update_when_shown()
 
     def update(self):
         res = self.state.result
@@ -125,5 +152,9 @@ class QualityView:
             parts.append(_HINT)
         self.text.object = "\n\n".join(parts)
 
+    def __panel__(self):
+        return self._layout
+
     def panel(self):
-        return pn.Column(self.mtf, self.text, name="Image quality", sizing_mode="stretch_width")
+        """The view's layout (what Panel shows for the view itself)."""
+        return self._layout
