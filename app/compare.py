@@ -496,14 +496,7 @@ class CompareView:
         return out + pinned
 
     def update(self):
-        """Show the current designs: images, histograms, table, A/B choices, status.
-
-        One batch of changes (``pn.io.hold``): the histogram is a Bokeh figure changed in place, and a change
-        sent outside Panel's queue could reach the page before the figure it changes (see ``views.held``)."""
-        with pn.io.hold(self._server_doc()):
-            self._update()
-
-    def _update(self):
+        """Show the current designs: images, histograms, table, A/B choices, status."""
         results = self.designs()
         metric = self.state.metric
         maps = [r.error_map(metric) for r in results if r.error_map(metric) is not None]
@@ -531,8 +524,12 @@ class CompareView:
             else:
                 self._shown[i] = None
             self.slots[i].visible = i < len(results)
-        self.histogram.update([(r.name, r.error_map(metric) if r.error_map(metric) is not None else r.delta_e)
-                               for r in results], metric, self.colours(results))
+        # the histogram is a Bokeh figure changed in place: held, its changes go through Panel's queue after the
+        # message that brings the figure, instead of reaching the page before it (see ``views.held``); the
+        # rest is sent change by change (held as one batch, pins took longer: 7089926)
+        with pn.io.hold(self._server_doc()):
+            self.histogram.update([(r.name, r.error_map(metric) if r.error_map(metric) is not None else r.delta_e)
+                                   for r in results], metric, self.colours(results))
         names = [r.name for r in results]
         a, b = self.a_select.value, self.b_select.value
         self.a_select.options = names

@@ -1002,7 +1002,7 @@ class Runner:
     def _run(self):
         try:
             self._loop()
-        except BaseException:  # a pool's thread would keep it silently, and the session would never compute again
+        except Exception:  # a pool's thread would keep it silently, and the session would never compute again
             logging.getLogger("camsim.explorer").exception("a session's computation failed")
             with self._lock:
                 self._pending, self.busy = None, False
