@@ -37,12 +37,23 @@ _LOG = logging.getLogger("camsim.serve")
 
 
 def _where(frame):
-    """Where a stack is: its innermost function, and the innermost of camsim's own frames under it."""
+    """Where a stack is: its innermost function, and the innermost of camsim's own frames under it; "" when
+    the stack cannot be read (another thread's frames change while they are read: a frame's ``f_back`` was
+    once seen to be a bool)."""
+    try:
+        return _describe(frame)
+    except Exception:
+        return ""
+
+
+def _describe(frame):
     if frame is None:
         return ""
     inner, ours = frame, None
     f = frame
-    while f is not None:
+    for _ in range(200):  # deep enough for any of the server's stacks; never a loop
+        if f is None:
+            break
         name = f.f_code.co_filename
         if ours is None and ("camsim_explorer" in name or "camsim_core" in name
                              or f"{os.sep}app{os.sep}" in name):

@@ -32,3 +32,15 @@ def test_a_blocked_loop_is_logged_and_a_free_one_is_not(caplog):
     lines = [r.getMessage() for r in caplog.records if "event loop blocked" in r.getMessage()]
     # and where: the function that held it, called from this test
     assert any("in _hold_the_loop (app/test_loop_watch.py)" in line for line in lines), lines
+
+
+def test_a_stack_that_cannot_be_read_gives_no_place_and_no_exception():
+    """Another thread's frames change while the watch reads them (a frame's f_back was seen to be a bool, and
+    the watch's thread died with a traceback in the server's log)."""
+    from camsim_explorer.loop_watch import _where
+
+    class Broken:
+        f_code = type("Code", (), {"co_filename": "x.py", "co_name": "f"})()
+        f_back = True
+
+    assert _where(Broken()) == ""
