@@ -28,9 +28,9 @@ chromium:
 serve: install
 	OPENBLAS_NUM_THREADS=1 $(VENV)/bin/camsim serve --port $(PORT)
 
-# Two workers (pytest-xdist), each test file on one of them: a file's server and browser are started once.
+# Two workers (pytest-xdist), each test file on one of them: a worker starts one server, a file one browser.
 test: install chromium
-	$(PY) -m pytest -q -rs -n 2 --dist loadfile
+	$(PY) -m pytest -q -rfEs -n 2 --dist loadfile
 
 # The development loop: the engine and the explorer's state and server, no browser (about a minute).
 test-fast: install

@@ -8,7 +8,7 @@ long, and the server's log says so (``event loop blocked N ms``), so a
 teacher or an operator sees it and a load test can assert there is none.
 The longest stall since start is kept in :data:`STALLS`. Each line also
 says where the loop was while it was held: a thread looks at the loop's
-stack (``sys._current_frames``) every tick while a tick is overdue, and the
+stack (a ``faulthandler`` dump) every tick while a tick is overdue, and the
 line names the function seen most often, with the innermost of camsim's own
 frames that led to it (``in serialize (bokeh/core/serialization.py) from
 _apply (camsim_explorer/state.py)``).
@@ -19,10 +19,12 @@ every callback and is meant for development, not a served class.
 
 from __future__ import annotations
 
+import faulthandler
 import gc
 import logging
 import os
-import sys
+import re
+import tempfile
 import threading
 import time
 from collections import Counter
@@ -36,38 +38,56 @@ STALLS = {"longest_ms": 0.0, "count": 0}
 _LOG = logging.getLogger("camsim.serve")
 
 
-def _where(frame):
-    """Where a stack is: its innermost function, and the innermost of camsim's own frames under it; "" when
-    the stack cannot be read (another thread's frames change while they are read: a frame's ``f_back`` was
-    once seen to be a bool)."""
-    try:
-        return _describe(frame)
-    except Exception:
+_THREAD = re.compile(r"^(?:Current thread|Thread) (0x[0-9a-f]+)", re.M)
+_FRAME = re.compile(r'^  File "(.*)", line \d+ in (.*)$', re.M)
+
+
+def _stack_of(thread_id, dump):
+    """The frames of one thread in a ``faulthandler`` dump of all threads, innermost first, as
+    ``(file, function)`` pairs; ``[]`` when the thread is not in it."""
+    parts = _THREAD.split(dump)  # ["", id, block, id, block, ...]
+    for ident, block in zip(parts[1::2], parts[2::2]):
+        if int(ident, 16) == thread_id:
+            return _FRAME.findall(block)
+    return []
+
+
+def _where(stack):
+    """Where a stack is: its innermost function, and the innermost of camsim's own frames under it ("" for an
+    empty stack). ``stack`` is ``[(file, function), ...]``, innermost first."""
+    if not stack:
         return ""
 
+    def ours(path):
+        return "camsim_explorer" in path or "camsim_core" in path or f"{os.sep}app{os.sep}" in path
 
-def _describe(frame):
-    if frame is None:
-        return ""
-    inner, ours = frame, None
-    f = frame
-    for _ in range(200):  # deep enough for any of the server's stacks; never a loop
-        if f is None:
-            break
-        name = f.f_code.co_filename
-        if ours is None and ("camsim_explorer" in name or "camsim_core" in name
-                             or f"{os.sep}app{os.sep}" in name):
-            ours = f
-        f = f.f_back
+    def label(frame):
+        path, func = frame
+        return f"{func} ({'/'.join(path.replace(os.sep, '/').split('/')[-2:])})"
 
-    def label(fr):
-        path = fr.f_code.co_filename.replace(os.sep, "/").split("/")
-        return f"{fr.f_code.co_name} ({'/'.join(path[-2:])})"
-
+    inner = stack[0]
+    own = next((f for f in stack if ours(f[0])), None)
     text = f"in {label(inner)}"
-    if ours is not None and ours is not inner:
-        text += f" from {label(ours)}"
+    if own is not None and own is not inner:
+        text += f" from {label(own)}"
     return text
+
+
+def _loop_stack(thread_id, scratch):
+    """The loop thread's stack, read by ``faulthandler`` into the file ``scratch``.
+
+    Not ``sys._current_frames()``: walking another thread's frame objects
+    (``f_back``) on CPython 3.11 reads freed frames (a frame's ``f_back`` was
+    seen to be a bool, and a test server died; python/cpython#99110 and
+    getsentry/sentry-python#2386 report the same crash in 3.11.5).
+    ``faulthandler`` reads the interpreter's own frame chain, holding the GIL,
+    and makes no frame objects.
+    """
+    scratch.seek(0)
+    scratch.truncate()
+    faulthandler.dump_traceback(scratch, all_threads=True)
+    scratch.seek(0)
+    return _stack_of(thread_id, scratch.read().decode("ascii", "replace"))
 
 
 def watch_event_loop(loop, threshold_ms=100.0, log=_LOG):
@@ -116,12 +136,13 @@ def watch_event_loop(loop, threshold_ms=100.0, log=_LOG):
             state["handle"] = loop.call_later(TICK_S, tick)
 
     def look():  # in a thread of its own: the loop's stack while a tick is overdue
+        scratch = tempfile.TemporaryFile()
         while not state["stopped"]:
             time.sleep(TICK_S)
             due, thread = state["due"], state["thread"]
             if thread is None or (time.monotonic() - due) * 1000.0 < TICK_S * 1000.0:
                 continue
-            where = _where(sys._current_frames().get(thread))
+            where = _where(_loop_stack(thread, scratch))
             with lock:
                 if state["seen_for"] != due:
                     state["seen"], state["seen_for"] = Counter(), due

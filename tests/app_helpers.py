@@ -32,6 +32,23 @@ def free_port():
         return s.getsockname()[1]
 
 
+#: The servers ``explorer_server`` runs, by base URL: ``(process, log path or None)``.
+RUNNING = {}
+
+
+def server_gone(url):
+    """Why the server at ``url`` (one ``explorer_server`` started) no longer answers: its exit status and the
+    end of its log; None while it runs. A test server that dies fails every later page on it with
+    ``ERR_CONNECTION_REFUSED``; this says why instead."""
+    proc, log = RUNNING.get(url, (None, None))
+    if proc is None or proc.poll() is None:
+        return None
+    tail = ""
+    if log is not None and Path(log).exists():
+        tail = "".join(Path(log).read_text(errors="replace").splitlines(keepends=True)[-40:])
+    return f"camsim serve at {url} exited with status {proc.returncode}; the end of its log ({log}):\n{tail}"
+
+
 @contextmanager
 def explorer_server(scene=None, extra_args=(), on_start=None, launcher=None):
     """``camsim serve`` on 127.0.0.1 and a free port, in a subprocess; yields the base URL.
@@ -46,8 +63,9 @@ def explorer_server(scene=None, extra_args=(), on_start=None, launcher=None):
     if scene:
         cmd += ["--scene", scene]
     cmd += list(extra_args)
+    # PYTHONFAULTHANDLER: a server that crashes (a signal, not an exception) writes every thread's stack to its log
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
-               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", BOKEH_LOG_LEVEL="warn")
+               OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", BOKEH_LOG_LEVEL="warn", PYTHONFAULTHANDLER="1")
     log = open(ARTIFACTS / f"server-{port}.log", "w") if ARTIFACTS.exists() else subprocess.DEVNULL
     proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT)
     url = f"http://127.0.0.1:{port}/"
@@ -66,8 +84,11 @@ def explorer_server(scene=None, extra_args=(), on_start=None, launcher=None):
             time.sleep(POLL)
         if on_start is not None:
             on_start(proc)
+        RUNNING[url] = (proc, getattr(log, "name", None))
         yield url
     finally:
+        gone = server_gone(url)
+        RUNNING.pop(url, None)
         proc.terminate()
         try:
             proc.wait(timeout=10)
@@ -75,6 +96,8 @@ def explorer_server(scene=None, extra_args=(), on_start=None, launcher=None):
             proc.kill()
         if hasattr(log, "close"):
             log.close()
+    if gone:
+        raise RuntimeError(f"the server died while its tests used it: {gone}")
 
 
 def chromium_path():

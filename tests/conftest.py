@@ -86,8 +86,11 @@ def own_server():
 @pytest.fixture
 def page(browser, server):
     """A fresh page of the explorer (``app_helpers.Page``) on this module's server, closed after the test."""
-    from app_helpers import Page
+    from app_helpers import Page, server_gone
 
+    gone = server_gone(server)
+    if gone:
+        pytest.fail(gone)
     pg = Page(browser, server)
     yield pg
     pg.close()

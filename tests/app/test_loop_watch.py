@@ -34,13 +34,21 @@ def test_a_blocked_loop_is_logged_and_a_free_one_is_not(caplog):
     assert any("in _hold_the_loop (app/test_loop_watch.py)" in line for line in lines), lines
 
 
-def test_a_stack_that_cannot_be_read_gives_no_place_and_no_exception():
-    """Another thread's frames change while the watch reads them (a frame's f_back was seen to be a bool, and
-    the watch's thread died with a traceback in the server's log)."""
-    from camsim_explorer.loop_watch import _where
+def test_the_place_is_read_from_a_dump_of_every_thread_without_frame_objects():
+    """The loop's stack comes from a faulthandler dump, parsed: walking another thread's frame objects
+    (``f_back``) read freed frames on CPython 3.11 (a frame's f_back was seen to be a bool, and a test server
+    died)."""
+    from camsim_explorer.loop_watch import _stack_of, _where
 
-    class Broken:
-        f_code = type("Code", (), {"co_filename": "x.py", "co_name": "f"})()
-        f_back = True
+    dump = (
+        "Thread 0x00007f0000000002 (most recent call first):\n"
+        '  File "/usr/lib/python3.11/threading.py", line 320 in wait\n'
+        '  File "/srv/app/state.py", line 88 in submit\n\n'
+        "Current thread 0x00007f0000000001 (most recent call first):\n"
+        '  File "/srv/app/loop_watch.py", line 9 in look\n'
+    )
+    stack = _stack_of(0x7F0000000002, dump)
+    assert stack == [("/usr/lib/python3.11/threading.py", "wait"), ("/srv/app/state.py", "submit")]
+    assert _where(stack) == "in wait (python3.11/threading.py) from submit (app/state.py)"
+    assert _stack_of(0x7F0000000003, dump) == [] and _where([]) == ""
 
-    assert _where(Broken()) == ""
