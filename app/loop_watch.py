@@ -53,22 +53,26 @@ def _stack_of(thread_id, dump):
 
 
 def _where(stack):
-    """Where a stack is: its innermost function, and the innermost of camsim's own frames under it ("" for an
-    empty stack). ``stack`` is ``[(file, function), ...]``, innermost first."""
+    """Where a stack is: its innermost function, and the innermost of the explorer's frames under it (of the
+    engine's when the explorer has none; "" for an empty stack). ``stack`` is ``[(file, function), ...]``,
+    innermost first."""
     if not stack:
         return ""
 
+    def app(path):  # the explorer's frames name the callback that held the loop; the engine's say less
+        return "camsim_explorer" in path or f"{os.sep}app{os.sep}" in path
+
     def ours(path):
-        return "camsim_explorer" in path or "camsim_core" in path or f"{os.sep}app{os.sep}" in path
+        return app(path) or "camsim_core" in path
 
     def label(frame):
         path, func = frame
         return f"{func} ({'/'.join(path.replace(os.sep, '/').split('/')[-2:])})"
 
     inner = stack[0]
-    own = next((f for f in stack if ours(f[0])), None)
+    own = next((f for f in stack[1:] if app(f[0])), None) or next((f for f in stack[1:] if ours(f[0])), None)
     text = f"in {label(inner)}"
-    if own is not None and own is not inner:
+    if own is not None:
         text += f" from {label(own)}"
     return text
 

@@ -449,10 +449,14 @@ class ExplorerState(param.Parameterized):
                 check_text(name, value)
         camera = self.camera_object()
         check_viewing(self.viewing, camera)
-        job = {"id": next(self._requests), "params": params, "scene": self.scene_object(),
-               "camera": camera, "processing": self.processing()}
+        job = {"id": next(self._requests), "params": params, "camera": camera, "processing": self.processing()}
         if self._pending_fit is not None and self.scene == self._pending_fit["on"]:
             job["chart"] = dict(self._pending_fit, light=self.light)  # made in the computing thread (``_compute``)
+            # the chart at its default size is needed only if the fit is refused: made then, in that thread too
+            # (made here, a process's first pick of a chart held every page's event loop 230-330 ms)
+            job["scene"] = None
+        else:
+            job["scene"] = self.scene_object()
         job["notice"], self._chart_notice = self._chart_notice, ""
         return job
 
@@ -808,15 +812,20 @@ class ExplorerState(param.Parameterized):
             self._built = (spec["key"], scene)  # a job superseding this one (not shown) finds it made
         except CamsimError as exc:
             spec["error"] = f"Chart {spec['base']} kept at its default size: {exc}"
-            return job["scene"], job["camera"]
+            return self._unfitted(job), job["camera"]
         except Exception as exc:  # never a dead page
             spec["error"] = f"Chart {spec['base']} kept at its default size: {type(exc).__name__}: {exc}"
-            return job["scene"], job["camera"]
+            return self._unfitted(job), job["camera"]
         lo, hi = self.param.exposure.bounds
         exposure = job["camera"].exposure if value is None else float(np.clip(value, lo, hi))
         spec.update(scene=scene, lit=lit, exposure=exposure)
         job["notice"] = self._fit_notice(spec, scene, value, exposure)
         return lit, job["camera"] if value is None else job["camera"].replace(exposure=exposure)
+
+    @staticmethod
+    def _unfitted(job):
+        """The chart a job picked, at its default size under the job's light (a refused fit computes this)."""
+        return scale_light(cc.load_scene(job["params"]["scene"]), job["chart"]["light"])
 
     def _show_fitted(self, job):
         """On the event loop, with a job's result: select the chart fitted in the computing thread at its

@@ -148,3 +148,33 @@ def test_a_new_camera_refits_the_chart_in_the_computing_thread(calls):
     assert state.scene != fitted and state.scene.startswith("munsell:") and state.shown["camera"] == "imx174"
     assert raw.data.shape[0] >= 0.8 * cam.height and raw.data.shape[1] >= 0.8 * cam.width, raw.data.shape
     assert "Chart sized to the frame" in state.notice
+
+
+def test_a_refused_fit_shows_the_chart_at_its_default_size_made_off_the_loop(monkeypatch):
+    """A fit refused in the computing thread falls back to the chart at its default size, made there too: the
+    job no longer makes it on the event loop in case the fit fails (a process's first pick of a chart held
+    every page's loop 230-330 ms for it)."""
+    from camsim_core.errors import CamsimError
+
+    loop = threading.get_ident()
+    state = ExplorerState(start=False)
+    outcomes = served(state)
+    state.recompute()
+    settle(state, outcomes)
+    loaded, load = [], cc.load_scene
+
+    def load_scene(name, *a, **k):
+        loaded.append((str(name), threading.get_ident()))
+        return load(name, *a, **k)
+
+    def refuse(*a, **k):
+        raise CamsimError("the frame is too large for this chart")
+
+    monkeypatch.setattr(cc, "load_scene", load_scene)
+    monkeypatch.setattr(state, "_make_fitted", refuse)
+    state.scene = "zone-plate"
+    assert ("zone-plate", loop) not in loaded, loaded
+    settle(state, outcomes)
+    assert state.message == "Chart zone-plate kept at its default size: the frame is too large for this chart"
+    assert state.result.scene.shape == load("zone-plate").shape and state.shown["scene"] == "zone-plate"
+    assert ("zone-plate", loop) not in loaded and any(n == "zone-plate" and t != loop for n, t in loaded), loaded

@@ -51,4 +51,8 @@ def test_the_place_is_read_from_a_dump_of_every_thread_without_frame_objects():
     assert stack == [("/usr/lib/python3.11/threading.py", "wait"), ("/srv/app/state.py", "submit")]
     assert _where(stack) == "in wait (python3.11/threading.py) from submit (app/state.py)"
     assert _stack_of(0x7F0000000003, dump) == [] and _where([]) == ""
+    # an engine's frame held the loop: the explorer's callback that called it is named, not the engine's caller
+    engine = [("/srv/camsim_core/scene/scene.py", "__post_init__"), ("/srv/camsim_core/scene/io.py", "load"),
+              ("/srv/camsim_explorer/views.py", "update"), ("/usr/lib/python3.11/asyncio/events.py", "_run")]
+    assert _where(engine) == "in __post_init__ (scene/scene.py) from update (camsim_explorer/views.py)"
 
