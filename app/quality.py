@@ -89,6 +89,9 @@ class QualityView(pn.viewable.Viewer):
     A Panel component (``pn.viewable.Viewer``): shown as it is, or with :meth:`panel`. It updates when the
     state's result changes (``param.depends("state.result")``), through ``when_shown``: at once while its
     tab is shown, once when the tab is next shown otherwise (:class:`~camsim_explorer.shown.WhenShown`).
+    While the tab is shown, a new result is measured in the session's computing thread with the rest of
+    the result (:meth:`prepare`, one of ``ExplorerState.preparers``): the event loop, which serves every
+    page, only shows the numbers (an SSIM of a frame-sized chart held it 100-200 ms).
 
     Parameters
     ----------
@@ -115,7 +118,10 @@ class QualityView(pn.viewable.Viewer):
         self.mtf = pn.Column(self.mtf_plot, css_classes=["camsim-mtf"], visible=False, margin=0)
         self.text = pn.pane.Markdown("", css_classes=["camsim-quality"], sizing_mode="stretch_width")
         self._update_when_shown = when_shown(self.update)
+        self._tab_shown = lambda: getattr(when_shown, "shown", True)
+        self._measured = None  # (result, measures, (report, problem)) made by ``prepare``
         super().__init__(state=state, **params)
+        state.preparers.append(self.prepare)
         self._layout = pn.Column(self.mtf, self.text, name="Image quality", sizing_mode="stretch_width")
         self.update()
 
@@ -123,17 +129,36 @@ class QualityView(pn.viewable.Viewer):
     def _on_result(self):
         self._update_when_shown()
 
+    def _measure(self, what, res):
+        """``(report, problem)``: the engine's measures ``what`` of ``res``, or why they were not made."""
+        try:
+            return measure_images(what, raw=res.raw, demosaiced=res.demosaiced, rendered=res.rendered,
+                                  ideal=res.ideal, monitor=self.state.monitor), ""
+        except CamsimError as exc:
+            return {}, f"**Not measured**: {md_text(exc)}"
+
+    def prepare(self, res):
+        """Measure a new result while the tab is shown (in the computing thread: ``ExplorerState.preparers``).
+
+        :meth:`update` shows these numbers when its result and measures are
+        the ones it would make (a chart fitted meanwhile is named otherwise,
+        and measures the same); it measures on its own otherwise.
+        """
+        if res is None or res.raw is None or not self._tab_shown():
+            return
+        what = measures_for(self.state.scene, res)
+        self._measured = (res, what, self._measure(what, res))
+
     def update(self):
         res = self.state.result
         if res is None or res.raw is None:
             return
         what = measures_for(self.state.scene, res)
-        try:
-            self.report = measure_images(what, raw=res.raw, demosaiced=res.demosaiced, rendered=res.rendered,
-                                         ideal=res.ideal, monitor=self.state.monitor)
-            problem = ""
-        except CamsimError as exc:
-            self.report, problem = {}, f"**Not measured**: {md_text(exc)}"
+        held = self._measured
+        if held is not None and held[0] is res and held[1] == what:
+            self.report, problem = held[2]
+        else:
+            self.report, problem = self._measure(what, res)
         parts = [problem] if problem else []
         if "mtf" in self.report:
             self.mtf_plot.object = _mtf_plot(self.report["mtf"])

@@ -45,3 +45,49 @@ def test_default_scene_gets_similarity_and_a_hint():
     s = view.report["similarity"]
     assert np.isfinite(s["psnr_db"]) and 0 < s["ssim"] < 1
     assert "slanted-edge" in view.text.object
+
+
+def test_a_shown_tab_measures_in_the_computing_thread_and_a_hidden_one_not_at_all(monkeypatch):
+    """The measures of a new result are made with the result, in the session's computing thread, while the tab
+    is shown; the event loop (here the test's thread, as in test_chart_fit_off_loop) only shows them. A hidden
+    tab measures nothing until it is shown."""
+    import queue
+    import threading
+
+    import camsim_explorer.quality as quality
+    from camsim_explorer.shown import WhenShown
+    from camsim_explorer.state import Runner
+
+    loop = threading.get_ident()
+    measured, measure = [], quality.measure_images
+
+    def recording(*a, **k):
+        measured.append(threading.get_ident())
+        return measure(*a, **k)
+
+    monkeypatch.setattr(quality, "measure_images", recording)
+    state = ExplorerState(start=False)
+    outcomes = queue.Queue()
+    state.set_runner(Runner(state._compute, lambda job, outcome: outcomes.put((job, outcome))))
+
+    def settle():
+        while True:
+            job, outcome = outcomes.get(timeout=120)
+            state._apply(job, outcome)
+            if not state.computing and not state.runner.busy and outcomes.empty():
+                return
+
+    gate = WhenShown(shown=True)
+    view = QualityView(state, gate)
+    state.recompute()
+    settle()
+    assert measured and loop not in measured, measured
+    assert view.report["similarity"] == pytest.approx(_engine(state, ("similarity",))["similarity"])
+    measured.clear()
+    gate.show(False)
+    state.noise_sigma = 3.0
+    settle()
+    assert measured == []  # nobody looks: nothing measured
+    gate.show(True)  # opened again: its numbers follow the result shown, measured now (on the loop)
+    assert measured == [loop]
+    assert view.report["similarity"] == pytest.approx(_engine(state, ("similarity",))["similarity"])
