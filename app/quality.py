@@ -10,6 +10,8 @@ ideal image.
 
 from __future__ import annotations
 
+import logging
+
 import holoviews as hv
 import numpy as np
 import panel as pn
@@ -20,7 +22,7 @@ from camsim_core.metrics.report import default_measures, measure_images
 
 from .safe_text import md_text
 from .shown import now
-from .state import ExplorerState
+from .state import SESSION_THREADS, ExplorerState
 
 __all__ = ["QualityView", "measures_for", "channel_colours", "CHANNEL_COLOURS"]
 
@@ -90,8 +92,9 @@ class QualityView(pn.viewable.Viewer):
     state's result changes (``param.depends("state.result")``), through ``when_shown``: at once while its
     tab is shown, once when the tab is next shown otherwise (:class:`~camsim_explorer.shown.WhenShown`).
     While the tab is shown, a new result is measured in the session's computing thread with the rest of
-    the result (:meth:`prepare`, one of ``ExplorerState.preparers``): the event loop, which serves every
-    page, only shows the numbers (an SSIM of a frame-sized chart held it 100-200 ms).
+    the result (:meth:`prepare`, one of ``ExplorerState.preparers``); a result the tab had not measured when
+    it opens is measured in a session thread. The event loop, which serves every page, only shows the
+    numbers: an SSIM of a frame-sized chart, measured on it, held every page 0.6-5 s in the test suite.
 
     Parameters
     ----------
@@ -113,13 +116,15 @@ class QualityView(pn.viewable.Viewer):
     def __init__(self, state, when_shown=now, **params):
         self.report = {}
         self.mtf_plot = pn.pane.HoloViews(_mtf_plot({}), linked_axes=False)
+        self._mtf_pipe, self._mtf_channels = None, None  # the plot's data stream, and the curves it draws
         # shown and hidden as a whole: a HoloViews pane's own ``visible``, set after its plot was replaced, makes
         # Panel (1.9) pass its layout parameters to the Bokeh figure, which refuses ``design`` (the tab broke)
         self.mtf = pn.Column(self.mtf_plot, css_classes=["camsim-mtf"], visible=False, margin=0)
         self.text = pn.pane.Markdown("", css_classes=["camsim-quality"], sizing_mode="stretch_width")
         self._update_when_shown = when_shown(self.update)
         self._tab_shown = lambda: getattr(when_shown, "shown", True)
-        self._measured = None  # (result, measures, (report, problem)) made by ``prepare``
+        self._measured = None  # (result, measures, (report, problem)) made by ``prepare`` or a session thread
+        self._measuring = None  # (result, measures) being measured in a session thread
         super().__init__(state=state, **params)
         state.preparers.append(self.prepare)
         self._layout = pn.Column(self.mtf, self.text, name="Image quality", sizing_mode="stretch_width")
@@ -150,18 +155,44 @@ class QualityView(pn.viewable.Viewer):
         self._measured = (res, what, self._measure(what, res))
 
     def update(self):
+        """Show the measures of the state's result: made by :meth:`prepare` already, else measured now outside
+        a server, or in a session thread in one (the tab says so meanwhile) and shown on the page's next tick."""
         res = self.state.result
         if res is None or res.raw is None:
             return
         what = measures_for(self.state.scene, res)
         held = self._measured
         if held is not None and held[0] is res and held[1] == what:
-            self.report, problem = held[2]
-        else:
-            self.report, problem = self._measure(what, res)
+            return self._show(*held[2])
+        doc = pn.state.curdoc
+        if doc is None or doc.session_context is None:
+            return self._show(*self._measure(what, res))
+        if self._measuring == (res, what):
+            return
+        self._measuring = (res, what)
+        self.mtf.visible = False
+        self.text.object = "Measuring the result shown..."
+
+        def measure():  # in a session thread; back on the page's next tick (Bokeh's only thread-safe call)
+            try:
+                outcome = self._measure(what, res)
+            except Exception as exc:  # never a tab stuck on "Measuring"
+                logging.getLogger("camsim.explorer").exception("the image quality measures failed")
+                outcome = {}, f"**Not measured**: {md_text(f'{type(exc).__name__}: {exc}')}"
+            self._measured, self._measuring = (res, what, outcome), None
+            try:
+                doc.add_next_tick_callback(self._update_when_shown)
+            except Exception:  # the page has closed
+                pass
+
+        SESSION_THREADS.submit(measure)
+
+    def _show(self, report, problem):
+        """The numbers of one report (or why there are none), as tables, a line and the MTF plot."""
+        self.report = report
         parts = [problem] if problem else []
         if "mtf" in self.report:
-            self.mtf_plot.object = _mtf_plot(self.report["mtf"])
+            self._plot_mtf(self.report["mtf"])
             lines = [f"| {k} | {v['mtf50']:.3f} | {v['mtf_nyquist']:.3f} |" for k, v in self.report["mtf"].items()]
             parts.append("| channel | MTF50 (cycles/px) | MTF at Nyquist |\n|---|---|---|\n" + "\n".join(lines))
         self.mtf.visible = "mtf" in self.report
@@ -176,6 +207,17 @@ class QualityView(pn.viewable.Viewer):
         if not any(k in self.report for k in ("mtf", "snr", "color")):
             parts.append(_HINT)
         self.text.object = "\n\n".join(parts)
+
+    def _plot_mtf(self, mtf):
+        """Draw ``mtf``: the same curves as the plot has are sent as new data (its Bokeh figure kept, 60-80 ms
+        on the event loop); other curves make a new plot (130-210 ms, 400 ms on a busy server: the number of
+        curves of a plot drawn in place cannot change, and the tab broke when it did)."""
+        channels = tuple(mtf)
+        if self._mtf_pipe is not None and channels == self._mtf_channels:
+            self._mtf_pipe.send(mtf)
+            return
+        self._mtf_pipe, self._mtf_channels = hv.streams.Pipe(data=mtf), channels
+        self.mtf_plot.object = hv.DynamicMap(lambda data: _mtf_plot(data), streams=[self._mtf_pipe])
 
     def __panel__(self):
         return self._layout

@@ -91,3 +91,27 @@ def test_a_shown_tab_measures_in_the_computing_thread_and_a_hidden_one_not_at_al
     gate.show(True)  # opened again: its numbers follow the result shown, measured now (on the loop)
     assert measured == [loop]
     assert view.report["similarity"] == pytest.approx(_engine(state, ("similarity",))["similarity"])
+
+
+def test_the_mtf_plot_follows_each_result_drawn_in_place_or_anew():
+    """The same curves are drawn in place (new data for the same Bokeh figure, title included); another set
+    of curves (a camera with other sensors) makes a new plot, with its own curves."""
+    from bokeh.document import Document
+
+    def figure_titles(root):
+        return [m.title.text for m in root.references() if type(m).__name__ == "figure" and m.title is not None]
+
+    state = ExplorerState(scene="slanted-edge", distance=1.0)
+    view = QualityView(state)
+    root = view.mtf_plot.get_root(Document())
+    first = view.report["mtf"]["luminance"]["mtf50"]
+    assert any(f"{first:.3f}" in t for t in figure_titles(root)), figure_titles(root)
+    state.f_stop = 16.0  # diffraction: a lower MTF50, the same curves
+    second = view.report["mtf"]["luminance"]["mtf50"]
+    assert f"{second:.3f}" != f"{first:.3f}"
+    assert any(f"{second:.3f}" in t for t in figure_titles(root)), figure_titles(root)
+    state.camera = "human-cones"  # L, M, S sensors: other curves
+    curves = set(view.report["mtf"])
+    assert curves != {"R", "G", "B", "luminance"}
+    labels = {r.name for r in view.mtf_plot.get_root(Document()).references() if type(r).__name__ == "GlyphRenderer"}
+    assert curves <= labels, (curves, labels)
