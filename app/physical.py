@@ -15,6 +15,7 @@ from __future__ import annotations
 import holoviews as hv
 import numpy as np
 import panel as pn
+import param
 
 from camsim_core.camera.physical import PHYSICAL_NAMES, SENSOR_FIELDS
 from camsim_core.errors import CamsimError
@@ -22,7 +23,8 @@ from camsim_core.optics import cutoff_frequency, diffraction_mtf
 from camsim_core.simulation.electrons import photon_transfer, system_gain
 
 from .safe_text import md_text
-from .shown import now
+from .shown import now, off_the_loop
+from .state import ExplorerState
 
 __all__ = ["PhysicalView", "SensorControls", "parameter_table", "mtf_curves"]
 
@@ -61,19 +63,68 @@ def mtf_curves(f_number, pitch_m, n=200):
     return {w: (f, diffraction_mtf(f, w, f_number)) for w in WAVELENGTHS_NM}, 1.0 / (2.0 * pitch_m * 1e3)
 
 
-class PhysicalView:
-    """Optics & sensor tab: parameters, diffraction MTF at the current f-number, photon transfer."""
+def _mtf_plot(data):
+    """The diffraction MTF at 450, 550 and 650 nm with the pixel's Nyquist frequency (dashed);
+    ``data`` is ``(f-number, curves, nyquist)`` from :func:`mtf_curves`."""
+    f_stop, curves, nyquist = data
+    plot = hv.Overlay([hv.Curve(fm, "Spatial frequency at the sensor (cycles/mm)", "MTF", label=f"{w:g} nm").opts(
+        color=_COLOURS[w]) for w, fm in curves.items()])
+    plot = plot * hv.VLine(nyquist).opts(color="gray", line_dash="dashed")
+    return plot.opts(frame_height=220, frame_width=360, legend_position="top_right",
+                     title=f"Diffraction-limited MTF at f/{f_stop:g} (dashed: pixel Nyquist)")
 
-    def __init__(self, state, when_shown=now):
-        self.state = state
+
+def _ptc_key(cam):
+    """What the photon-transfer curve depends on: the sensor's own parameters (not the noise seed, the scene, ...)."""
+    return (cam.noise_model, cam.sensors.name, cam.pixel_size, cam.fill_factor, cam.full_well, cam.read_noise,
+            cam.dark_current, cam.dsnu, cam.prnu, cam.electrons_per_dn, cam.analog_gain, cam.bits, cam.black_level,
+            cam.exposure, cam.f_stop)
+
+
+class PhysicalView(pn.viewable.Viewer):
+    """Optics & sensor tab: parameters, diffraction MTF at the current f-number, photon transfer.
+
+    A Panel component (``pn.viewable.Viewer``) following the state's result (``param.depends("state.result")``)
+    through ``when_shown``: at once while its tab is shown, once when it is next shown otherwise. The MTF is
+    drawn again only when the f-number or the pixel pitch changed (as new data for the same plot); the
+    photon-transfer curve (ten simulated flat fields) is made off the event loop: with a new result in the
+    computing thread while the tab is shown, else in a session thread, the note saying so meanwhile.
+
+    Parameters
+    ----------
+    state : ExplorerState
+        The session's state: the camera of its last result is shown.
+    when_shown : callable, optional
+        The tab's gate (:class:`~camsim_explorer.shown.WhenShown`).
+
+    Examples
+    --------
+    >>> from camsim_explorer.state import ExplorerState
+    >>> view = PhysicalView(ExplorerState(camera="imx174"))
+    >>> "system gain K" in view.table.object, "Slope in the linear range" in view.note.object
+    (True, True)
+    """
+
+    state = param.ClassSelector(class_=ExplorerState, doc="The session's state: its result's camera is shown.")
+
+    def __init__(self, state, when_shown=now, **params):
         self.table = pn.pane.Markdown("", css_classes=["camsim-physical-table"], width=380)
         self.mtf = pn.pane.HoloViews(hv.Curve([]), css_classes=["camsim-mtf"], linked_axes=False)
         self.ptc = pn.pane.HoloViews(hv.Curve([]), css_classes=["camsim-ptc"], linked_axes=False)
         self.note = pn.pane.Markdown("", css_classes=["camsim-ptc-note"])
-        self._ptc_key = None
-        update = when_shown(self.update)
-        state.param.watch(lambda e: update(), ["result"])
+        self._mtf_key, self._mtf_pipe = None, None  # (f-number, pitch) drawn, and the plot's data stream
+        self._ptc_key = None  # the sensor whose curve (or note) is shown
+        self._ptc_held, self._ptc_making = None, None  # (key, (ptc, problem)) made off the loop; key being made
+        self._update_when_shown = when_shown(self.update)
+        self._tab_shown = lambda: getattr(when_shown, "shown", True)
+        super().__init__(state=state, **params)
+        state.preparers.append(self.prepare)
+        self._layout = pn.Column(pn.Row(self.table, pn.Column(self.mtf, self.ptc, self.note)), name="Optics & sensor")
         self.update()
+
+    @param.depends("state.result", watch=True)
+    def _on_result(self):
+        self._update_when_shown()
 
     def camera(self):
         res = self.state.result
@@ -84,30 +135,64 @@ class PhysicalView:
         if cam is None:
             return
         self.table.object = parameter_table(cam)
-        curves, nyquist = mtf_curves(cam.f_stop, cam.pixel_size[1])
-        plot = hv.Overlay([hv.Curve(fm, "Spatial frequency at the sensor (cycles/mm)", "MTF", label=f"{w:g} nm").opts(
-            color=_COLOURS[w]) for w, fm in curves.items()])
-        plot = plot * hv.VLine(nyquist).opts(color="gray", line_dash="dashed")
-        self.mtf.object = plot.opts(frame_height=220, frame_width=360, legend_position="top_right",
-                                    title=f"Diffraction-limited MTF at f/{cam.f_stop:g} (dashed: pixel Nyquist)")
+        key = (float(cam.f_stop), float(cam.pixel_size[1]))
+        if key != self._mtf_key:
+            self._mtf_key = key
+            data = (key[0],) + mtf_curves(*key)
+            if self._mtf_pipe is None:
+                self._mtf_pipe = hv.streams.Pipe(data=data)
+                self.mtf.object = hv.DynamicMap(lambda data: _mtf_plot(data), streams=[self._mtf_pipe])
+            else:
+                self._mtf_pipe.send(data)
         self.update_ptc(cam)
 
+    @staticmethod
+    def _transfer(cam):
+        """``(ptc, problem)``: the engine's photon-transfer curve of ``cam`` over ten exposures, or why not."""
+        try:
+            return photon_transfer(cam, np.geomspace(cam.exposure / 20, cam.exposure * 2, 10), size=48), ""
+        except CamsimError as exc:
+            return None, f"Photon transfer unavailable: {md_text(exc)}"
+
+    def prepare(self, res):
+        """The photon-transfer curve of a new result's camera, made in the computing thread while the tab is
+        shown (``ExplorerState.preparers``) and only when its sensor changed."""
+        cam = None if res is None else res.camera
+        if cam is None or cam.noise_model != "photon" or not self._tab_shown():
+            return
+        key = _ptc_key(cam)
+        if key != self._ptc_key and (self._ptc_held is None or self._ptc_held[0] != key):
+            self._ptc_held = (key, self._transfer(cam))
+
     def update_ptc(self, cam):
-        key = (cam.noise_model, cam.sensors.name, cam.pixel_size, cam.fill_factor, cam.full_well, cam.read_noise,
-               cam.dark_current, cam.dsnu, cam.prnu, cam.electrons_per_dn, cam.analog_gain, cam.bits, cam.black_level,
-               cam.exposure, cam.f_stop)
+        key = _ptc_key(cam)
         if key == self._ptc_key:
             return  # only the sensor's own parameters change the curve (not the noise seed, the scene, ...)
-        self._ptc_key = key
         if cam.noise_model != "photon":
+            self._ptc_key = key
             self.ptc.object = hv.Curve([])
             self.note.object = ("Photon transfer: this camera's noise is the chapter's Gaussian model in digital units; "
                                 "choose a camera with an electron-level sensor (phone-1.4um, imx174).")
             return
-        try:
-            ptc = photon_transfer(cam, np.geomspace(cam.exposure / 20, cam.exposure * 2, 10), size=48)
-        except CamsimError as exc:
-            self.note.object = f"Photon transfer unavailable: {md_text(exc)}"
+        held = self._ptc_held
+        if held is not None and held[0] == key:
+            self._ptc_key = key
+            return self._show_ptc(*held[1])
+        if self._ptc_making == key:
+            return  # in a thread already
+
+        def made(outcome):  # on the page's next tick: shown if the tab still wants it
+            self._ptc_held, self._ptc_making = (key, outcome), None
+            self._update_when_shown()
+
+        self._ptc_making = key
+        if off_the_loop(lambda: self._transfer(cam), made,
+                        lambda exc: (None, f"Photon transfer unavailable: {md_text(f'{type(exc).__name__}: {exc}')}")):
+            self.note.object = "Simulating the photon-transfer curve (ten flat fields)..."
+
+    def _show_ptc(self, ptc, problem):
+        if ptc is None:
+            self.note.object = problem
             return
         curves = [hv.Curve((ptc["mean"][:, k], ptc["variance"][:, k]), "Mean (DN, black subtracted)", "Temporal variance (DN²)",
                            label=name).opts(color={"R": "#d03030", "G": "#30a030", "B": "#3050d0"}.get(name, "black"))
@@ -117,8 +202,12 @@ class PhysicalView:
         self.note.object = (f"Slope in the linear range = system gain K = {ptc['gain']:.4g} DN/e-; the variance falls "
                             "where the pixels saturate.")
 
+    def __panel__(self):
+        return self._layout
+
     def panel(self):
-        return pn.Column(pn.Row(self.table, pn.Column(self.mtf, self.ptc, self.note)), name="Optics & sensor")
+        """The view's layout (what Panel shows for the view itself)."""
+        return self._layout
 
 
 class SensorControls:

@@ -10,8 +10,6 @@ ideal image.
 
 from __future__ import annotations
 
-import logging
-
 import holoviews as hv
 import numpy as np
 import panel as pn
@@ -21,8 +19,8 @@ from camsim_core.errors import CamsimError
 from camsim_core.metrics.report import default_measures, measure_images
 
 from .safe_text import md_text
-from .shown import now
-from .state import SESSION_THREADS, ExplorerState
+from .shown import now, off_the_loop
+from .state import ExplorerState
 
 __all__ = ["QualityView", "measures_for", "channel_colours", "CHANNEL_COLOURS"]
 
@@ -164,28 +162,18 @@ class QualityView(pn.viewable.Viewer):
         held = self._measured
         if held is not None and held[0] is res and held[1] == what:
             return self._show(*held[2])
-        doc = pn.state.curdoc
-        if doc is None or doc.session_context is None:
-            return self._show(*self._measure(what, res))
-        if self._measuring == (res, what):
-            return
-        self._measuring = (res, what)
-        self.mtf.visible = False
-        self.text.object = "Measuring the result shown..."
+        if self._measuring is not None and self._measuring[0] is res and self._measuring[1] == what:
+            return  # already in a thread
 
-        def measure():  # in a session thread; back on the page's next tick (Bokeh's only thread-safe call)
-            try:
-                outcome = self._measure(what, res)
-            except Exception as exc:  # never a tab stuck on "Measuring"
-                logging.getLogger("camsim.explorer").exception("the image quality measures failed")
-                outcome = {}, f"**Not measured**: {md_text(f'{type(exc).__name__}: {exc}')}"
+        def measured(outcome):  # on the page's next tick: shown if the tab still wants it, held otherwise
             self._measured, self._measuring = (res, what, outcome), None
-            try:
-                doc.add_next_tick_callback(self._update_when_shown)
-            except Exception:  # the page has closed
-                pass
+            self._update_when_shown()
 
-        SESSION_THREADS.submit(measure)
+        self._measuring = (res, what)
+        if off_the_loop(lambda: self._measure(what, res), measured,
+                        lambda exc: ({}, f"**Not measured**: {md_text(f'{type(exc).__name__}: {exc}')}")):
+            self.mtf.visible = False
+            self.text.object = "Measuring the result shown..."
 
     def _show(self, report, problem):
         """The numbers of one report (or why there are none), as tables, a line and the MTF plot."""

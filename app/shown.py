@@ -11,7 +11,7 @@ hidden tab's updates and runs each once, newest state, when the tab is shown.
 
 from __future__ import annotations
 
-__all__ = ["WhenShown", "now"]
+__all__ = ["WhenShown", "now", "off_the_loop"]
 
 
 def now(fn):
@@ -54,3 +54,49 @@ class WhenShown:
         while self.shown and self._pending:
             fn = self._pending.pop(next(iter(self._pending)))  # the first held first
             fn()
+
+
+def off_the_loop(make, then, failed):
+    """Run ``make()`` in a session thread and ``then(value)`` on the page's next tick; outside a served page
+    (a notebook, a test), both at once. A ``make`` that raises is logged and ``then(failed(exc))`` shows why
+    (never a view waiting for ever). Returns True when ``make`` was sent to a thread (the view can say it is
+    working meanwhile).
+
+    The event loop serves every page of the server: a view's measure (an SSIM, a photon-transfer curve)
+    made in its callbacks held every page for its time.
+
+    Examples
+    --------
+    >>> shown = []
+    >>> off_the_loop(lambda: 6 * 7, shown.append, str), shown  # no page here: made at once
+    (False, [42])
+    >>> off_the_loop(lambda: 1 / 0, shown.append, lambda exc: f"not made: {exc}"), shown[-1]
+    (False, 'not made: division by zero')
+    """
+    import logging
+
+    import panel as pn
+
+    from .state import SESSION_THREADS
+
+    def made():
+        try:
+            return make()
+        except Exception as exc:
+            logging.getLogger("camsim.explorer").exception("a view's measure failed")
+            return failed(exc)
+
+    doc = pn.state.curdoc
+    if doc is None or doc.session_context is None:
+        then(made())
+        return False
+
+    def run():
+        value = made()
+        try:
+            doc.add_next_tick_callback(lambda: then(value))  # Bokeh's one thread-safe call
+        except Exception:  # the page has closed
+            pass
+
+    SESSION_THREADS.submit(run)
+    return True

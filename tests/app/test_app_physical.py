@@ -31,7 +31,49 @@ def test_view_draws_photon_transfer_for_an_electron_sensor_and_explains_otherwis
     view = PhysicalView(state)
     overlay = view.ptc.object
     assert len(overlay) == 3 and "system gain" in view.note.object
+    from bokeh.document import Document
+
+    root = view.mtf.get_root(Document())  # the MTF plot as the page has it: the same figure gets new data
     state.f_stop = 16.0
-    assert "f/16" in view.mtf.object.opts.get().kwargs["title"]
+    titles = [m.title.text for m in root.references() if type(m).__name__ == "figure" and m.title is not None]
+    assert any("f/16" in t for t in titles), titles
     state.camera = "kodak-dcs200-ir"
     assert "Gaussian model" in view.note.object
+
+
+def test_the_photon_transfer_curve_is_made_off_the_loop_and_only_for_a_new_sensor(monkeypatch):
+    """While the tab is shown, the curve of a new sensor is simulated in the computing thread with the result
+    (ten flat fields: it held every page of the server when made in the result's watcher); a change that
+    leaves the sensor as it was (the noise seed) simulates nothing, nor does a hidden tab."""
+    import threading
+
+    import camsim_explorer.physical as physical
+    from camsim_explorer.shown import WhenShown
+    from served_state import served, settle
+
+    loop = threading.get_ident()
+    made, transfer = [], physical.photon_transfer
+
+    def recording(*a, **k):
+        made.append(threading.get_ident())
+        return transfer(*a, **k)
+
+    monkeypatch.setattr(physical, "photon_transfer", recording)
+    state = ExplorerState(start=False, camera="imx174", distance=3.32, exposure=0.005)
+    outcomes = served(state)
+    gate = WhenShown(shown=True)
+    view = PhysicalView(state, gate)
+    state.recompute()
+    settle(state, outcomes)
+    assert made and loop not in made, made
+    assert "system gain K" in view.note.object and len(view.ptc.object) == 3
+    made.clear()
+    state.seed = 7  # the same sensor: the same curve
+    settle(state, outcomes)
+    assert made == []
+    gate.show(False)
+    state.exposure = 0.01
+    settle(state, outcomes)
+    assert made == []  # hidden: nothing simulated
+    gate.show(True)  # shown again, outside a served page here: simulated at once for the sensor in force
+    assert made == [loop] and "system gain K" in view.note.object

@@ -51,12 +51,11 @@ def test_a_shown_tab_measures_in_the_computing_thread_and_a_hidden_one_not_at_al
     """The measures of a new result are made with the result, in the session's computing thread, while the tab
     is shown; the event loop (here the test's thread, as in test_chart_fit_off_loop) only shows them. A hidden
     tab measures nothing until it is shown."""
-    import queue
     import threading
 
     import camsim_explorer.quality as quality
     from camsim_explorer.shown import WhenShown
-    from camsim_explorer.state import Runner
+    from served_state import served, settle
 
     loop = threading.get_ident()
     measured, measure = [], quality.measure_images
@@ -67,26 +66,18 @@ def test_a_shown_tab_measures_in_the_computing_thread_and_a_hidden_one_not_at_al
 
     monkeypatch.setattr(quality, "measure_images", recording)
     state = ExplorerState(start=False)
-    outcomes = queue.Queue()
-    state.set_runner(Runner(state._compute, lambda job, outcome: outcomes.put((job, outcome))))
-
-    def settle():
-        while True:
-            job, outcome = outcomes.get(timeout=120)
-            state._apply(job, outcome)
-            if not state.computing and not state.runner.busy and outcomes.empty():
-                return
+    outcomes = served(state)
 
     gate = WhenShown(shown=True)
     view = QualityView(state, gate)
     state.recompute()
-    settle()
+    settle(state, outcomes)
     assert measured and loop not in measured, measured
     assert view.report["similarity"] == pytest.approx(_engine(state, ("similarity",))["similarity"])
     measured.clear()
     gate.show(False)
     state.noise_sigma = 3.0
-    settle()
+    settle(state, outcomes)
     assert measured == []  # nobody looks: nothing measured
     gate.show(True)  # opened again: its numbers follow the result shown, measured now (on the loop)
     assert measured == [loop]
@@ -115,3 +106,12 @@ def test_the_mtf_plot_follows_each_result_drawn_in_place_or_anew():
     assert curves != {"R", "G", "B", "luminance"}
     labels = {r.name for r in view.mtf_plot.get_root(Document()).references() if type(r).__name__ == "GlyphRenderer"}
     assert curves <= labels, (curves, labels)
+
+
+def test_doctests():
+    import doctest
+
+    import camsim_explorer.quality as quality
+
+    result = doctest.testmod(quality)
+    assert result.attempted > 0 and result.failed == 0

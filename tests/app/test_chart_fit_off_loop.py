@@ -7,7 +7,6 @@ outcomes are queued and applied on this thread, as the page's next-tick callback
 chart and its exposure is recorded by wrapping the engine's functions.
 """
 
-import queue
 import threading
 
 import numpy as np
@@ -16,6 +15,7 @@ import pytest
 import camsim_core as cc
 import camsim_core.scene.charts as charts
 from camsim_explorer.state import ExplorerState, Runner
+from served_state import served, settle
 
 
 @pytest.fixture
@@ -35,22 +35,6 @@ def calls(monkeypatch):
     monkeypatch.setattr(charts, "chart", chart)
     monkeypatch.setattr(cc, "auto_exposure", auto_exposure)
     return seen
-
-
-def served(state):
-    """Give ``state`` a runner whose outcomes wait for the test's thread (the event loop); returns the queue."""
-    outcomes = queue.Queue()
-    state.set_runner(Runner(state._compute, lambda job, outcome: outcomes.put((job, outcome))))
-    return outcomes
-
-
-def settle(state, outcomes, timeout=120):
-    """Apply outcomes on this thread until nothing is computing."""
-    while True:
-        job, outcome = outcomes.get(timeout=timeout)
-        state._apply(job, outcome)
-        if not state.computing and not state.runner.busy and outcomes.empty():
-            return
 
 
 def test_a_picked_chart_is_made_in_the_computing_thread(calls):
