@@ -71,7 +71,7 @@ def _mtf_plot(data):
         color=_COLOURS[w]) for w, fm in curves.items()])
     plot = plot * hv.VLine(nyquist).opts(color="gray", line_dash="dashed")
     return plot.opts(frame_height=220, frame_width=360, legend_position="top_right",
-                     title=f"Diffraction-limited MTF at f/{f_stop:g} (dashed: pixel Nyquist)")
+                     title=f"Diffraction MTF at f/{f_stop:g} (dashed: Nyquist)")
 
 
 def _ptc_key(cam):
@@ -111,7 +111,10 @@ class PhysicalView(pn.viewable.Viewer):
         self.table = pn.pane.Markdown("", css_classes=["camsim-physical-table"], width=380)
         self.mtf = pn.pane.HoloViews(hv.Curve([]), css_classes=["camsim-mtf"], linked_axes=False)
         self.ptc = pn.pane.HoloViews(hv.Curve([]), css_classes=["camsim-ptc"], linked_axes=False)
-        self.note = pn.pane.Markdown("", css_classes=["camsim-ptc-note"])
+        # shown and hidden as a whole (a camera in digital units has no curve: an empty plot labelled "y" was
+        # shown), as the Image quality tab's MTF: a HoloViews pane's own ``visible`` breaks its next plot
+        self.ptc_box = pn.Column(self.ptc, visible=False, margin=0)
+        self.note = pn.pane.Markdown("", css_classes=["camsim-ptc-note"], width=440)
         self._mtf_key, self._mtf_pipe = None, None  # (f-number, pitch) drawn, and the plot's data stream
         self._ptc_key = None  # the sensor whose curve (or note) is shown
         self._ptc_held, self._ptc_making = None, None  # (key, (ptc, problem)) made off the loop; key being made
@@ -119,7 +122,7 @@ class PhysicalView(pn.viewable.Viewer):
         self._tab_shown = lambda: getattr(when_shown, "shown", True)
         super().__init__(state=state, **params)
         state.preparers.append(self.prepare)
-        self._layout = pn.Column(pn.Row(self.table, pn.Column(self.mtf, self.ptc, self.note)), name="Optics & sensor")
+        self._layout = pn.Column(pn.Row(self.table, pn.Column(self.mtf, self.ptc_box, self.note)), name="Optics & sensor")
         self.update()
 
     @param.depends("state.result", watch=True)
@@ -170,7 +173,7 @@ class PhysicalView(pn.viewable.Viewer):
             return  # only the sensor's own parameters change the curve (not the noise seed, the scene, ...)
         if cam.noise_model != "photon":
             self._ptc_key = key
-            self.ptc.object = hv.Curve([])
+            self.ptc_box.visible = False
             self.note.object = ("Photon transfer: this camera's noise is the chapter's Gaussian model in digital units; "
                                 "choose a camera with an electron-level sensor (phone-1.4um, imx174).")
             return
@@ -188,9 +191,11 @@ class PhysicalView(pn.viewable.Viewer):
         self._ptc_making = key
         if off_the_loop(lambda: self._transfer(cam), made,
                         lambda exc: (None, f"Photon transfer unavailable: {md_text(f'{type(exc).__name__}: {exc}')}")):
+            self.ptc_box.visible = False  # the curve shown is another sensor's
             self.note.object = "Simulating the photon-transfer curve (ten flat fields)..."
 
     def _show_ptc(self, ptc, problem):
+        self.ptc_box.visible = ptc is not None
         if ptc is None:
             self.note.object = problem
             return
@@ -198,7 +203,7 @@ class PhysicalView(pn.viewable.Viewer):
                            label=name).opts(color={"R": "#d03030", "G": "#30a030", "B": "#3050d0"}.get(name, "black"))
                   for k, name in enumerate(ptc["names"])]
         self.ptc.object = hv.Overlay(curves).opts(frame_height=220, frame_width=360, legend_position="top_left",
-                                                  title="Photon transfer (EMVA 1288): flat field, 10 exposures")
+                                                  title="Photon transfer (EMVA 1288), 10 exposures")
         self.note.object = (f"Slope in the linear range = system gain K = {ptc['gain']:.4g} DN/e-; the variance falls "
                             "where the pixels saturate.")
 

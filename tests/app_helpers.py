@@ -351,6 +351,32 @@ def figures(page):
     return page.page.evaluate(FIGURES_JS)
 
 
+# JS: the titles of the Bokeh plots shown in the page wider than the room their plots give them, measured with
+# the font Bokeh draws them in. A title starts over the frame's left edge and the plot's canvas cuts it at its
+# right edge, where the toolbar begins ("Nyquist do...", "10 exposure..." in issue 38).
+_CUT_TITLES_JS = """() => {
+  const cut = [];
+  const ctx = document.createElement('canvas').getContext('2d');
+  for (const doc of Bokeh.documents) for (const m of doc.all_models) {
+    const t = m.title;
+    if (!t || typeof t !== 'object' || !t.text || !m.toolbar) continue;
+    let view = null;
+    for (const root of Object.values(Bokeh.index)) { try { view = root.owner.find_one(m); } catch (e) {} if (view) break; }
+    if (!view || !view.frame || !view.el.isConnected || view.el.getClientRects().length === 0) continue;
+    ctx.font = `${t.text_font_style} ${t.text_font_size} ${t.text_font}`;
+    // a title starts over the frame's left edge; the plot's canvas (its toolbar is beside it) ends it
+    const width = ctx.measureText(t.text).width, room = view.bbox.width - view.frame.bbox.left;
+    if (width > room + 1) cut.push(`${t.text} (${Math.round(width)} px where ${Math.round(room)} px show)`);
+  }
+  return cut;
+}"""
+
+
+def cut_titles(page):
+    """The plot titles shown in ``page`` that do not fit over their plots (text and sizes; [] when all fit)."""
+    return page.page.evaluate(_CUT_TITLES_JS)
+
+
 def loading_count(page):
     """How many elements show Panel's loading state (class pn-loading), shadow roots included."""
     return page.page.evaluate("""() => { let n = 0; function walk(root) {

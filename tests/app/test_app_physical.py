@@ -30,7 +30,7 @@ def test_view_draws_photon_transfer_for_an_electron_sensor_and_explains_otherwis
     state = ExplorerState(camera="imx174", distance=3.32, exposure=0.005)
     view = PhysicalView(state)
     overlay = view.ptc.object
-    assert len(overlay) == 3 and "system gain" in view.note.object
+    assert len(overlay) == 3 and "system gain" in view.note.object and view.ptc_box.visible
     from bokeh.document import Document
 
     root = view.mtf.get_root(Document())  # the MTF plot as the page has it: the same figure gets new data
@@ -39,6 +39,7 @@ def test_view_draws_photon_transfer_for_an_electron_sensor_and_explains_otherwis
     assert any("f/16" in t for t in titles), titles
     state.camera = "kodak-dcs200-ir"
     assert "Gaussian model" in view.note.object
+    assert not view.ptc_box.visible  # no empty plot labelled "y" for a camera in digital units
 
 
 def test_the_photon_transfer_curve_is_made_off_the_loop_and_only_for_a_new_sensor(monkeypatch):

@@ -6,7 +6,7 @@ import re
 
 import pytest
 
-from app_helpers import Page, server_log, wait_until
+from app_helpers import Page, cut_titles, eventually, server_log, wait_until
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -219,6 +219,18 @@ def test_presentation_mode_makes_every_control_and_plot_text_readable_at_1920(br
         labels = _until(lambda: (t := page.page.evaluate(_LABELS_CUT))["labels"] >= 2 and t,
                         "the labels measured")
         assert not labels["cut"], labels
+        # and every plot's title over its plot, whole, in the large text (the Optics & sensor tab's were cut)
+        page.page.locator(".bk-tab").filter(has_text="Optics & sensor").first.click()
+        _until(lambda: len(p := page.page.evaluate(_PLOT_TEXT_SIZES)) > len(plots) and all(px(v) >= 18 for _, v in p),
+               "the Optics & sensor tab's plots in large text")
+
+        def titles_whole():
+            cut = cut_titles(page)
+            assert cut == [], cut
+
+        eventually(titles_whole, timeout=30)
+        page.shot("presentation-1920-optics")
+        page.page.locator(".bk-tab").filter(has_text="Camera").first.click()
         page.shot("presentation-1920")
         # and back: the sizes a page had before
         page.page.locator(".w-present button").first.click()

@@ -11,7 +11,9 @@ the status pane (the result shown) by a fact it prints:
 - Camera: the camera's name and the size of the image the status pane holds;
 - Image quality: the mean dE it quotes is the status pane's;
 - Optics & sensor: the exposure it lists is the status pane's;
-- Compare designs and Experiments: their message (built, no error).
+- Compare designs and Experiments: their message (built, no error);
+
+and on every tab, every plot's title fits over its plot (titles were cut at the toolbar).
 
 A screenshot of the Image quality tab for each chart goes to
 ``test-artifacts/walk-quality-CHART-CAMERA.png``.
@@ -21,7 +23,7 @@ from __future__ import annotations
 
 import pytest
 
-from app_helpers import Page, eventually, server_log
+from app_helpers import Page, cut_titles, eventually, server_log
 
 pytestmark = pytest.mark.browser
 
@@ -69,6 +71,7 @@ def _check_tab(page, title, want):
             assert "Pin designs" in _pane_text(page, ".camsim-sweep-message")
         elif title == "Experiments":
             assert "Figure 1.14" in _pane_text(page, ".camsim-exp-message")
+        assert cut_titles(page) == []  # every plot's title over its plot, whole
 
     eventually(check, timeout=60)
 
