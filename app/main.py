@@ -489,13 +489,12 @@ def _results_tab(state, views):
 
 def _scene_tab(state, views, when_shown):
     sv = views["scene"] = SceneView(state, when_shown)
-    return pn.Column(pn.Row(sv.wavelength, sv.clear), pn.Row(sv.rgb_pane, sv.plane_pane, sizing_mode="stretch_width"),
-                     pn.Row(sv.spectrum_pane, sv.meta, sizing_mode="stretch_width"), sizing_mode="stretch_width")
+    return sv.__panel__()
 
 
 def _camera_tab(state, views, when_shown):
     cv = views["camera"] = CameraView(state, when_shown)
-    return pn.Column(cv.info, pn.Row(cv.curves, cv.tile), sizing_mode="stretch_width")
+    return cv.__panel__()
 
 
 #: The tabs, in order: (title, builder(state, views, when_shown) -> a Panel object). ``when_shown`` is the

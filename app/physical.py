@@ -150,7 +150,7 @@ class PhysicalView(pn.viewable.Viewer):
         self.update_ptc(cam)
 
     @staticmethod
-    def _transfer(cam):
+    def _ptc_of(cam):
         """``(ptc, problem)``: the engine's photon-transfer curve of ``cam`` over ten exposures, or why not."""
         try:
             return photon_transfer(cam, np.geomspace(cam.exposure / 20, cam.exposure * 2, 10), size=48), ""
@@ -165,7 +165,7 @@ class PhysicalView(pn.viewable.Viewer):
             return
         key = _ptc_key(cam)
         if key != self._ptc_key and (self._ptc_held is None or self._ptc_held[0] != key):
-            self._ptc_held = (key, self._transfer(cam))
+            self._ptc_held = (key, self._ptc_of(cam))
 
     def update_ptc(self, cam):
         key = _ptc_key(cam)
@@ -189,7 +189,7 @@ class PhysicalView(pn.viewable.Viewer):
             self._update_when_shown()
 
         self._ptc_making = key
-        if off_the_loop(lambda: self._transfer(cam), made,
+        if off_the_loop(lambda: self._ptc_of(cam), made,
                         lambda exc: (None, f"Photon transfer unavailable: {md_text(f'{type(exc).__name__}: {exc}')}")):
             self.ptc_box.visible = False  # the curve shown is another sensor's
             self.note.object = "Simulating the photon-transfer curve (ten flat fields)..."
@@ -215,15 +215,30 @@ class PhysicalView(pn.viewable.Viewer):
         return self._layout
 
 
-class SensorControls:
+class SensorControls(pn.viewable.Viewer):
     """The sidebar's Sensor card: the electron-level sensor's fields in their units, for the current camera.
 
     Each field shows the value in force (the camera sheet's, or the one set
     here); a cleared field returns to the sheet's. A refused value (out of
     range, a full well not above the read noise) gets the state's message and
     the field goes back. For the chapter's cameras, calibrated in digital
-    units, the fields are hidden and a note says why.
+    units, the fields are hidden and a note says why. A Panel component
+    (``pn.viewable.Viewer``: the fields and the note) following the state's
+    camera and sensor (``param.depends``).
+
+    Examples
+    --------
+    >>> from camsim_explorer.state import ExplorerState
+    >>> state = ExplorerState(camera="imx174")
+    >>> controls = SensorControls(state, pn.pane.Markdown())
+    >>> controls.inputs["read_noise_e"].value
+    7.0
+    >>> state.camera = "kodak-dcs200-ir"
+    >>> controls.inputs["read_noise_e"].visible, "calibrated in digital units" in controls.note.object
+    (False, True)
     """
+
+    state = param.ClassSelector(class_=ExplorerState, doc="The session's state: its camera's sensor is shown.")
 
     #: (label, CSS class) of each field of :data:`SENSOR_FIELDS`
     LABELS = {
@@ -236,9 +251,8 @@ class SensorControls:
         "prnu_pct": ("PRNU (%)", "w-sensor-prnu"),
     }
 
-    def __init__(self, state, note):
+    def __init__(self, state, note, **params):
         """``note``: a text holder (``object`` settable) for the line under the fields."""
-        self.state = state
         self.note = note
         self._busy = False
         self.inputs = {}
@@ -248,7 +262,11 @@ class SensorControls:
                                         description=f"{what}; {low:g} to {high:g} {unit}. Clear it for the camera's own.")
             box.param.watch(lambda e, n=name: self._from_widget(n, e.new), "value")
             self.inputs[name] = box
-        state.param.watch(lambda e: self.update(), ["camera", "sensor"])
+        super().__init__(state=state, **params)
+        self.update()
+
+    @param.depends("state.camera", "state.sensor", watch=True)
+    def _on_camera(self):
         self.update()
 
     def update(self):
@@ -293,4 +311,8 @@ class SensorControls:
             self._busy = False
 
     def panel(self):
+        """The fields, in order (the sidebar puts them in its card, the note after them)."""
         return list(self.inputs.values())
+
+    def __panel__(self):
+        return pn.Column(*self.panel(), self.note, sizing_mode="stretch_width")

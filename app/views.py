@@ -19,6 +19,7 @@ from functools import lru_cache, partial, wraps
 
 import numpy as np
 import panel as pn
+import param
 from bokeh.events import RangesUpdate, SelectionGeometry, Tap
 from bokeh.models import (BoxSelectTool, ColumnDataSource, CustomJSHover, DataRange1d, HoverTool,
                           LinearColorMapper, Range1d, Span, TapTool)
@@ -1043,17 +1044,31 @@ class ResultsView:
 
 
 # -- the scene: one plane, sRGB, spectra of clicked pixels, metadata -------
-class SceneView:
+class SceneView(pn.viewable.Viewer):
     """The scene before the camera: sRGB and one plane side by side (sharing zoom), spectra of
-    clicked pixels (numbered markers in their curve's colour) and of box-selected regions."""
+    clicked pixels (numbered markers in their curve's colour) and of box-selected regions.
+
+    A Panel component (``pn.viewable.Viewer``) following the state's scene and wavelength
+    (``param.depends``) through ``when_shown``, the tab's gate; its wavelength slider sets the state's.
+
+    Examples
+    --------
+    >>> from camsim_explorer.state import ExplorerState
+    >>> state = ExplorerState(scene="macbeth")
+    >>> view = SceneView(state)
+    >>> view.wavelength.value = 600.0
+    >>> state.wavelength, view.plane_label.object.startswith("Radiance at 600 nm")
+    (600.0, True)
+    """
+
+    state = param.ClassSelector(class_=state_module.ExplorerState, doc="The session's state: its scene is shown.")
 
     MAX_SPECTRA = 6
     COLORS = Category10[10]
     UNIT = "W/sr/m² per band"
 
-    def __init__(self, state, when_shown=now):
+    def __init__(self, state, when_shown=now, **params):
         """``when_shown``: the tab's gate (:class:`~camsim_explorer.shown.WhenShown`): updates wait while hidden."""
-        self.state = state
         self.shape = (2, 2)
         self.x_range, self.y_range = Range1d(0, 2), Range1d(0, 2)
         self.rgb_source = ColumnDataSource(dict(image=[np.zeros((2, 2), np.uint32)], x=[0], y=[0], dw=[2], dh=[2]))
@@ -1112,11 +1127,25 @@ class SceneView:
         self.clear.on_click(lambda e: self.reset_spectra())
         self.wavelength = pn.widgets.DiscreteSlider(name="Wavelength (nm)", options=[550.0], value=550.0,
                                                     css_classes=["w-wavelength"], width=280)
-        self.wavelength.param.watch(lambda e: setattr(state, "wavelength", float(e.new)), "value")
         self._scene = None
-        update = when_shown(self.update)
-        state.param.watch(lambda e: update(), ["scene", "wavelength"])
+        self._update_when_shown = when_shown(self.update)
+        super().__init__(state=state, **params)
+        self._layout = pn.Column(pn.Row(self.wavelength, self.clear),
+                                 pn.Row(self.rgb_pane, self.plane_pane, sizing_mode="stretch_width"),
+                                 pn.Row(self.spectrum_pane, self.meta, sizing_mode="stretch_width"),
+                                 sizing_mode="stretch_width")
         self.update()
+
+    @param.depends("wavelength.value", watch=True)
+    def _wavelength_chosen(self):
+        self.state.wavelength = float(self.wavelength.value)
+
+    @param.depends("state.scene", "state.wavelength", watch=True)
+    def _on_scene(self):
+        self._update_when_shown()
+
+    def __panel__(self):
+        return self._layout
 
     def scene(self):
         try:
@@ -1216,11 +1245,23 @@ class SceneView:
 
 
 # -- the camera: sensor curves and mosaic tile -------------------------------
-class CameraView:
-    """Sensor curves and the mosaic tile of the camera shown; redrawn only when those change."""
+class CameraView(pn.viewable.Viewer):
+    """Sensor curves and the mosaic tile of the camera shown; redrawn only when those change.
 
-    def __init__(self, state, when_shown=now):
-        self.state = state
+    A Panel component (``pn.viewable.Viewer``) following the state's result (``param.depends("state.result")``)
+    through ``when_shown``, the tab's gate (:class:`~camsim_explorer.shown.WhenShown`).
+
+    Examples
+    --------
+    >>> from camsim_explorer.state import ExplorerState
+    >>> view = CameraView(ExplorerState(camera="human-cones"))
+    >>> view.curve_source.data["label"]
+    ['L', 'M', 'S']
+    """
+
+    state = param.ClassSelector(class_=state_module.ExplorerState, doc="The session's state: its result's camera.")
+
+    def __init__(self, state, when_shown=now, **params):
         self._key = None
         self.curve_source = ColumnDataSource(dict(xs=[], ys=[], color=[], label=[]))
         fig = figure(height=300, sizing_mode="stretch_width", tools="pan,wheel_zoom,reset", toolbar_location="right",
@@ -1245,9 +1286,17 @@ class CameraView:
                                 css_classes=["camsim-sensors"], sizing_mode="stretch_width")
         self.tile = pn.Column(self.tile_label, pn.pane.Bokeh(tile), css_classes=["camsim-tile"], width=280)
         self.info = pn.pane.Markdown("", css_classes=["camsim-camera-info"], sizing_mode="stretch_width")
-        update = when_shown(self.update)
-        state.param.watch(lambda e: update(), ["result"])
+        self._update_when_shown = when_shown(self.update)
+        super().__init__(state=state, **params)
+        self._layout = pn.Column(self.info, pn.Row(self.curves, self.tile), sizing_mode="stretch_width")
         self.update()
+
+    @param.depends("state.result", watch=True)
+    def _on_result(self):
+        self._update_when_shown()
+
+    def __panel__(self):
+        return self._layout
 
     def update(self):
         res = self.state.result

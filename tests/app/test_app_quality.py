@@ -107,11 +107,3 @@ def test_the_mtf_plot_follows_each_result_drawn_in_place_or_anew():
     labels = {r.name for r in view.mtf_plot.get_root(Document()).references() if type(r).__name__ == "GlyphRenderer"}
     assert curves <= labels, (curves, labels)
 
-
-def test_doctests():
-    import doctest
-
-    import camsim_explorer.quality as quality
-
-    result = doctest.testmod(quality)
-    assert result.attempted > 0 and result.failed == 0

@@ -1,0 +1,16 @@
+"""The runnable examples in the explorer's docstrings run (modules listed here; more join as they gain examples)."""
+
+import doctest
+import importlib
+
+import pytest
+
+MODULES = ["camsim_explorer.quality", "camsim_explorer.physical", "camsim_explorer.views",
+           "camsim_explorer.loop_watch"]
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_docstring_examples_run(name):
+    result = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted > 0, f"{name} has no examples"
+    assert result.failed == 0
