@@ -25,3 +25,17 @@ def settle(state, outcomes, timeout=120):
         state._apply(job, outcome)
         if not state.computing and not state.runner.busy and outcomes.empty():
             return
+
+
+def threads_calling(monkeypatch, module, name):
+    """Record which threads call ``module.name`` from now on (the test's): returns the list of thread ids."""
+    import threading
+
+    seen, original = [], getattr(module, name)
+
+    def recording(*a, **k):
+        seen.append(threading.get_ident())
+        return original(*a, **k)
+
+    monkeypatch.setattr(module, name, recording)
+    return seen

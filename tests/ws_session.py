@@ -31,6 +31,17 @@ from tornado.websocket import websocket_connect
 _ids = count(1)
 
 
+async def until(predicate, what, timeout=90.0):
+    """Wait (on the running asyncio loop) until ``predicate()`` holds; an AssertionError naming ``what`` after
+    ``timeout`` seconds."""
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + timeout
+    while not predicate():
+        if loop.time() > deadline:
+            raise AssertionError(f"never: {what}")
+        await asyncio.sleep(0.02)
+
+
 def _frames(msgtype, content):
     header = {"msgid": f"load{next(_ids)}", "msgtype": msgtype}
     return [json.dumps(header), "{}", json.dumps(content)]

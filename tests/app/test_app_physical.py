@@ -50,16 +50,10 @@ def test_the_photon_transfer_curve_is_made_off_the_loop_and_only_for_a_new_senso
 
     import camsim_explorer.physical as physical
     from camsim_explorer.shown import WhenShown
-    from served_state import served, settle
+    from served_state import served, settle, threads_calling
 
     loop = threading.get_ident()
-    made, transfer = [], physical.photon_transfer
-
-    def recording(*a, **k):
-        made.append(threading.get_ident())
-        return transfer(*a, **k)
-
-    monkeypatch.setattr(physical, "photon_transfer", recording)
+    made = threads_calling(monkeypatch, physical, "photon_transfer")
     state = ExplorerState(start=False, camera="imx174", distance=3.32, exposure=0.005)
     outcomes = served(state)
     gate = WhenShown(shown=True)

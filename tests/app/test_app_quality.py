@@ -55,16 +55,10 @@ def test_a_shown_tab_measures_in_the_computing_thread_and_a_hidden_one_not_at_al
 
     import camsim_explorer.quality as quality
     from camsim_explorer.shown import WhenShown
-    from served_state import served, settle
+    from served_state import served, settle, threads_calling
 
     loop = threading.get_ident()
-    measured, measure = [], quality.measure_images
-
-    def recording(*a, **k):
-        measured.append(threading.get_ident())
-        return measure(*a, **k)
-
-    monkeypatch.setattr(quality, "measure_images", recording)
+    measured = threads_calling(monkeypatch, quality, "measure_images")
     state = ExplorerState(start=False)
     outcomes = served(state)
 

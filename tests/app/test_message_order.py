@@ -15,18 +15,9 @@ from __future__ import annotations
 import asyncio
 import json
 
-from ws_session import WsSession, _status
+from ws_session import WsSession, _status, until
 
 COMPARE_TAB = 4
-
-
-async def _until(predicate, what, timeout=90.0):
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + timeout
-    while not predicate():
-        if loop.time() > deadline:
-            raise AssertionError(f"never: {what}")
-        await asyncio.sleep(0.02)
 
 
 def _compare(session):
@@ -44,15 +35,15 @@ async def _walk(url):
             sent = await s.change("w-noise", noise)
             await s.shown("noise_sigma", noise, sent)
             await s.click("w-pin")
-            await _until(lambda: len(_compare(s).get("pinned", [])) == pinned and not _compare(s).get("busy"),
+            await until(lambda: len(_compare(s).get("pinned", [])) == pinned and not _compare(s).get("busy"),
                          f"{pinned} design(s) pinned and shown")
         sweep = s.find("w-sweep-values")
         await s._send("PATCH-DOC", {"events": [{"kind": "ModelChanged", "model": {"id": sweep}, "attr": "value",
                                                 "new": "0, 4"}]})
         await s.click("w-sweep-run")
-        await _until(lambda: "Done:" in s.text("camsim-sweep-message"), "the sweep done")
+        await until(lambda: "Done:" in s.text("camsim-sweep-message"), "the sweep done")
         await s.click("w-unpin")
-        await _until(lambda: len(_compare(s).get("pinned", [])) == 2, "one design unpinned")
+        await until(lambda: len(_compare(s).get("pinned", [])) == 2, "one design unpinned")
         return s.patches, list(s.unknown_references), _compare(s)
     finally:
         await s.close()

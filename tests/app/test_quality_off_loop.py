@@ -12,7 +12,7 @@ from __future__ import annotations
 import asyncio
 import re
 
-from ws_session import WsSession
+from ws_session import WsSession, until
 
 QUALITY_TAB = 3
 #: A stall line naming a measure: the engine's or scikit-image's metrics innermost, or the view's measuring
@@ -21,31 +21,22 @@ QUALITY_TAB = 3
 MEASURES = re.compile(r"event loop blocked \d+ ms in \S+ \((metrics|report)/|from (_measure|update|prepare) \(app/quality\.py\)")
 
 
-async def _until(predicate, what, timeout=120.0):
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + timeout
-    while not predicate():
-        if loop.time() > deadline:
-            raise AssertionError(f"never: {what}")
-        await asyncio.sleep(0.02)
-
-
 async def _walk(url):
     s = await WsSession.open(url)
     try:
         sent = await s.change("w-scene", "slanted-edge")
-        await _until(lambda: any(t >= sent and not st.get("computing")
+        await until(lambda: any(t >= sent and not st.get("computing")
                                  and str(st.get("params", {}).get("scene", "")).startswith("slanted-edge:")
-                                 for t, st in s.statuses), "the chart fitted and shown")
+                                 for t, st in s.statuses), "the chart fitted and shown", timeout=120)
         tabs = s.find("camsim-tabs", "Tabs")
         await s._send("PATCH-DOC", {"events": [{"kind": "ModelChanged", "model": {"id": tabs}, "attr": "active",
                                                 "new": QUALITY_TAB}]})
         await s.wait_for_model("camsim-quality", "HTML")
-        await _until(lambda: "MTF50" in s.text("camsim-quality"), "the chart's MTF in the tab")
+        await until(lambda: "MTF50" in s.text("camsim-quality"), "the chart's MTF in the tab")
         first = s.text("camsim-quality")
         sent = await s.change("w-noise", 4.0)
         await s.shown("noise_sigma", 4.0, sent)
-        await _until(lambda: "MTF50" in s.text("camsim-quality") and s.text("camsim-quality") != first,
+        await until(lambda: "MTF50" in s.text("camsim-quality") and s.text("camsim-quality") != first,
                      "the tab's numbers following the new result")
         return first, s.text("camsim-quality")
     finally:
