@@ -7,11 +7,19 @@ late by more than ``threshold_ms`` means a callback held the loop that
 long, and the server's log says so (``event loop blocked N ms``), so a
 teacher or an operator sees it and a load test can assert there is none.
 The longest stall since start is kept in :data:`STALLS`. Each line also
-says where the loop was while it was held: a thread looks at the loop's
-stack (a ``faulthandler`` dump) every tick while a tick is overdue, and the
-line names the function seen most often, with the innermost of camsim's own
-frames that led to it (``in serialize (bokeh/core/serialization.py) from
-_apply (camsim_explorer/state.py)``).
+says where the loop was while it was held: while a tick is overdue, a
+thread asks the loop's thread every tick, by a signal (``SIGUSR2``), to read
+its own stack, and the line names the function seen most often, with the
+innermost of the explorer's frames that led to it (``in serialize
+(bokeh/core/serialization.py) from _apply (camsim_explorer/state.py)``).
+
+Another thread's stack is not read from outside: walking its frame objects
+(``sys._current_frames()``, ``f_back``) on CPython 3.11 can read freed frames
+(a frame's ``f_back`` was seen to be a bool, and a test server died;
+python/cpython#99110, getsentry/sentry-python#2386); a ``faulthandler`` dump
+of every thread is safe but held the GIL 23 ms per look with the server's
+45 threads. A signal's handler runs in the loop's thread at its next
+bytecode, so it reads the loop's own frames.
 
 Hand-written: asyncio's debug mode logs slow callbacks, but it also slows
 every callback and is meant for development, not a served class.
@@ -19,12 +27,10 @@ every callback and is meant for development, not a served class.
 
 from __future__ import annotations
 
-import faulthandler
 import gc
 import logging
 import os
-import re
-import tempfile
+import signal
 import threading
 import time
 from collections import Counter
@@ -38,18 +44,18 @@ STALLS = {"longest_ms": 0.0, "count": 0}
 _LOG = logging.getLogger("camsim.serve")
 
 
-_THREAD = re.compile(r"^(?:Current thread|Thread) (0x[0-9a-f]+)", re.M)
-_FRAME = re.compile(r'^  File "(.*)", line \d+ in (.*)$', re.M)
+#: The signal that asks the loop's thread (the main thread) where it is.
+SAMPLE_SIGNAL = getattr(signal, "SIGUSR2", None)
 
 
-def _stack_of(thread_id, dump):
-    """The frames of one thread in a ``faulthandler`` dump of all threads, innermost first, as
-    ``(file, function)`` pairs; ``[]`` when the thread is not in it."""
-    parts = _THREAD.split(dump)  # ["", id, block, id, block, ...]
-    for ident, block in zip(parts[1::2], parts[2::2]):
-        if int(ident, 16) == thread_id:
-            return _FRAME.findall(block)
-    return []
+def _stack(frame, depth=200):
+    """``[(file, function), ...]`` from ``frame`` outwards: for the calling thread's own frames only (another
+    thread's frames, walked through ``f_back`` on CPython 3.11, can be freed while they are read)."""
+    out = []
+    while frame is not None and len(out) < depth:
+        out.append((frame.f_code.co_filename, frame.f_code.co_name))
+        frame = frame.f_back
+    return out
 
 
 def _where(stack):
@@ -75,23 +81,6 @@ def _where(stack):
     if own is not None:
         text += f" from {label(own)}"
     return text
-
-
-def _loop_stack(thread_id, scratch):
-    """The loop thread's stack, read by ``faulthandler`` into the file ``scratch``.
-
-    Not ``sys._current_frames()``: walking another thread's frame objects
-    (``f_back``) on CPython 3.11 reads freed frames (a frame's ``f_back`` was
-    seen to be a bool, and a test server died; python/cpython#99110 and
-    getsentry/sentry-python#2386 report the same crash in 3.11.5).
-    ``faulthandler`` reads the interpreter's own frame chain, holding the GIL,
-    and makes no frame objects.
-    """
-    scratch.seek(0)
-    scratch.truncate()
-    faulthandler.dump_traceback(scratch, all_threads=True)
-    scratch.seek(0)
-    return _stack_of(thread_id, scratch.read().decode("ascii", "replace"))
 
 
 def watch_event_loop(loop, threshold_ms=100.0, log=_LOG):
@@ -122,7 +111,22 @@ def watch_event_loop(loop, threshold_ms=100.0, log=_LOG):
     """
     state = {"due": time.monotonic() + TICK_S, "handle": None, "stopped": False, "thread": None,
              "seen": Counter(), "seen_for": None}
-    lock = threading.Lock()
+    lock = threading.RLock()  # the signal's handler runs in the loop's thread, maybe inside ``tick``'s hold
+
+    def sampled(signum, frame):  # in the loop's thread, at its next bytecode: where it is, read from itself
+        where = _where(_stack(frame))
+        with lock:
+            if state["seen_for"] != state["due"]:
+                state["seen"], state["seen_for"] = Counter(), state["due"]
+            state["seen"][where] += 1
+
+    # Where the loop is can only be read safely by the loop's own thread: a signal asks it. Python runs a
+    # signal's handler in the main thread, so only a loop there (``camsim serve``'s) says where it stalls.
+    main = threading.main_thread()
+    asking = (SAMPLE_SIGNAL is not None and threading.current_thread() is main
+              and signal.getsignal(SAMPLE_SIGNAL) in (signal.SIG_DFL, None))
+    if asking:
+        signal.signal(SAMPLE_SIGNAL, sampled)
 
     def tick():
         now = time.monotonic()
@@ -139,26 +143,27 @@ def watch_event_loop(loop, threshold_ms=100.0, log=_LOG):
             state["due"] = now + TICK_S
             state["handle"] = loop.call_later(TICK_S, tick)
 
-    def look():  # in a thread of its own: the loop's stack while a tick is overdue
-        scratch = tempfile.TemporaryFile()
+    def look():  # in a thread of its own: asks the loop where it is while a tick is overdue
         while not state["stopped"]:
             time.sleep(TICK_S)
             due, thread = state["due"], state["thread"]
-            if thread is None or (time.monotonic() - due) * 1000.0 < TICK_S * 1000.0:
+            if thread != main.ident or (time.monotonic() - due) * 1000.0 < TICK_S * 1000.0:
                 continue
-            where = _where(_loop_stack(thread, scratch))
-            with lock:
-                if state["seen_for"] != due:
-                    state["seen"], state["seen_for"] = Counter(), due
-                state["seen"][where] += 1
+            try:
+                signal.pthread_kill(thread, SAMPLE_SIGNAL)
+            except (OSError, ValueError):  # the process is ending
+                return
 
     state["handle"] = loop.call_later(TICK_S, tick)
-    threading.Thread(target=look, name="camsim-loop-watch", daemon=True).start()
+    if asking:
+        threading.Thread(target=look, name="camsim-loop-watch", daemon=True).start()
 
     def stop():
         state["stopped"] = True
         if state["handle"] is not None:
             state["handle"].cancel()
+        if asking and threading.current_thread() is main:
+            signal.signal(SAMPLE_SIGNAL, signal.SIG_DFL)
 
     return stop
 

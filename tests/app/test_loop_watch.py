@@ -34,25 +34,36 @@ def test_a_blocked_loop_is_logged_and_a_free_one_is_not(caplog):
     assert any("in _hold_the_loop (app/test_loop_watch.py)" in line for line in lines), lines
 
 
-def test_the_place_is_read_from_a_dump_of_every_thread_without_frame_objects():
-    """The loop's stack comes from a faulthandler dump, parsed: walking another thread's frame objects
-    (``f_back``) read freed frames on CPython 3.11 (a frame's f_back was seen to be a bool, and a test server
-    died)."""
-    from camsim_explorer.loop_watch import _stack_of, _where
+def test_the_place_is_the_innermost_function_and_the_explorers_callback_under_it():
+    """Where a stack is: read by the loop's thread from its own frames (a signal asks it); walking another
+    thread's frame objects on CPython 3.11 read freed frames (a frame's f_back was a bool, a server died)."""
+    import sys
 
-    dump = (
-        "Thread 0x00007f0000000002 (most recent call first):\n"
-        '  File "/usr/lib/python3.11/threading.py", line 320 in wait\n'
-        '  File "/srv/app/state.py", line 88 in submit\n\n'
-        "Current thread 0x00007f0000000001 (most recent call first):\n"
-        '  File "/srv/app/loop_watch.py", line 9 in look\n'
-    )
-    stack = _stack_of(0x7F0000000002, dump)
-    assert stack == [("/usr/lib/python3.11/threading.py", "wait"), ("/srv/app/state.py", "submit")]
-    assert _where(stack) == "in wait (python3.11/threading.py) from submit (app/state.py)"
-    assert _stack_of(0x7F0000000003, dump) == [] and _where([]) == ""
+    from camsim_explorer.loop_watch import _stack, _where
+
+    def inner():
+        return _stack(sys._getframe())
+
+    stack = inner()
+    assert stack[0][1] == "inner" and stack[1][1] == "test_the_place_is_the_innermost_function_and_the_explorers_callback_under_it"
+    assert _where([]) == ""
     # an engine's frame held the loop: the explorer's callback that called it is named, not the engine's caller
     engine = [("/srv/camsim_core/scene/scene.py", "__post_init__"), ("/srv/camsim_core/scene/io.py", "load"),
               ("/srv/camsim_explorer/views.py", "update"), ("/usr/lib/python3.11/asyncio/events.py", "_run")]
     assert _where(engine) == "in __post_init__ (scene/scene.py) from update (camsim_explorer/views.py)"
 
+
+def test_the_watch_leaves_the_signal_as_it_found_it():
+    import signal
+
+    from camsim_explorer.loop_watch import SAMPLE_SIGNAL
+
+    async def main():
+        stop = watch_event_loop(asyncio.get_running_loop())
+        during = signal.getsignal(SAMPLE_SIGNAL)
+        await asyncio.sleep(0.05)
+        stop()
+        return during
+
+    assert asyncio.run(main()) not in (signal.SIG_DFL, None)
+    assert signal.getsignal(SAMPLE_SIGNAL) == signal.SIG_DFL
