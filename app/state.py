@@ -822,10 +822,11 @@ class ExplorerState(param.Parameterized):
         job["notice"] = self._fit_notice(spec, scene, value, exposure)
         return lit, job["camera"] if value is None else job["camera"].replace(exposure=exposure)
 
-    @staticmethod
-    def _unfitted(job):
-        """The chart a job picked, at its default size under the job's light (a refused fit computes this)."""
-        return scale_light(cc.load_scene(job["params"]["scene"]), job["chart"]["light"])
+    def _unfitted(self, job):
+        """The chart a job picked, at its default size under the job's light (a refused fit computes this);
+        a chart this session holds (one fitted before, refitted for a new frame) is not made again."""
+        name = job["params"]["scene"]
+        return scale_light(self._uploads.get(name) or cc.load_scene(name), job["chart"]["light"])
 
     def _show_fitted(self, job):
         """On the event loop, with a job's result: select the chart fitted in the computing thread at its
