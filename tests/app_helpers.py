@@ -366,15 +366,20 @@ _CUT_TITLES_JS = """() => {
     ctx.font = `${t.text_font_style} ${t.text_font_size} ${t.text_font}`;
     // a title starts over the frame's left edge; the plot's canvas (its toolbar is beside it) ends it
     const width = ctx.measureText(t.text).width, room = view.bbox.width - view.frame.bbox.left;
-    if (width > room + 1) cut.push(`${t.text} (${Math.round(width)} px where ${Math.round(room)} px show)`);
+    cut.push({text: t.text, cut: width > room + 1, sizes: `${Math.round(width)} px where ${Math.round(room)} px show`});
   }
   return cut;
 }"""
 
 
+def shown_titles(page):
+    """The titles of the Bokeh plots shown in ``page``."""
+    return [t["text"] for t in page.page.evaluate(_CUT_TITLES_JS)]
+
+
 def cut_titles(page):
     """The plot titles shown in ``page`` that do not fit over their plots (text and sizes; [] when all fit)."""
-    return page.page.evaluate(_CUT_TITLES_JS)
+    return [f"{t['text']} ({t['sizes']})" for t in page.page.evaluate(_CUT_TITLES_JS) if t["cut"]]
 
 
 def loading_count(page):
