@@ -46,6 +46,8 @@ _LOG = logging.getLogger("camsim.serve")
 
 #: The signal that asks the loop's thread (the main thread) where it is.
 SAMPLE_SIGNAL = getattr(signal, "SIGUSR2", None)
+#: At most this many places are kept for one stall (50 a second: a stall of over three minutes).
+_MAX_SAMPLES = 10_000
 
 
 def _stack(frame, depth=200):
@@ -109,16 +111,12 @@ def watch_event_loop(loop, threshold_ms=100.0, log=_LOG):
     ...     stop()
     >>> asyncio.run(main())
     """
-    state = {"due": time.monotonic() + TICK_S, "handle": None, "stopped": False, "thread": None,
-             "seen": Counter(), "seen_for": None}
-    lock = threading.RLock()  # the signal's handler runs in the loop's thread, maybe inside ``tick``'s hold
+    state = {"due": time.monotonic() + TICK_S, "handle": None, "stopped": False, "thread": None, "samples": []}
 
     def sampled(signum, frame):  # in the loop's thread, at its next bytecode: where it is, read from itself
-        where = _where(_stack(frame))
-        with lock:
-            if state["seen_for"] != state["due"]:
-                state["seen"], state["seen_for"] = Counter(), state["due"]
-            state["seen"][where] += 1
+        samples = state["samples"]
+        if len(samples) < _MAX_SAMPLES:
+            samples.append((state["due"], _where(_stack(frame))))
 
     # Where the loop is can only be read safely by the loop's own thread: a signal asks it. Python runs a
     # signal's handler in the main thread, so only a loop there (``camsim serve``'s) says where it stalls.
@@ -130,22 +128,29 @@ def watch_event_loop(loop, threshold_ms=100.0, log=_LOG):
 
     def tick():
         now = time.monotonic()
-        late_ms = (now - state["due"]) * 1000.0
+        due, late_ms = state["due"], (now - state["due"]) * 1000.0
         state["thread"] = threading.get_ident()
-        if late_ms > threshold_ms:
-            STALLS["count"] += 1
-            STALLS["longest_ms"] = max(STALLS["longest_ms"], late_ms)
-            with lock:
-                seen = state["seen"] if state["seen_for"] == state["due"] else Counter()
-            where = seen.most_common(1)[0][0] if seen else ""
-            log.warning("event loop blocked %.0f ms%s", late_ms, f" {where}" if where else "")
-        if not state["stopped"]:
-            state["due"] = now + TICK_S
-            state["handle"] = loop.call_later(TICK_S, tick)
+        # The handler runs in this thread and can interrupt this very function (at any bytecode, or in a
+        # garbage collection's callback): it appends to a fresh list while this one is counted, never to
+        # the one being read (a shared Counter changed size under ``most_common`` and ended the watch).
+        samples, state["samples"] = state["samples"], []
+        try:
+            if late_ms > threshold_ms:
+                STALLS["count"] += 1
+                STALLS["longest_ms"] = max(STALLS["longest_ms"], late_ms)
+                seen = Counter(where for when, where in samples if when == due)
+                where = seen.most_common(1)[0][0] if seen else ""
+                log.warning("event loop blocked %.0f ms%s", late_ms, f" {where}" if where else "")
+        finally:  # whatever happened above, the watch goes on
+            if not state["stopped"]:
+                state["due"] = now + TICK_S
+                state["handle"] = loop.call_later(TICK_S, tick)
 
     def look():  # in a thread of its own: asks the loop where it is while a tick is overdue
-        while not state["stopped"]:
+        while True:
             time.sleep(TICK_S)
+            if state["stopped"]:  # looked at after the sleep: ``stop`` may have come during it
+                return
             due, thread = state["due"], state["thread"]
             if thread != main.ident or (time.monotonic() - due) * 1000.0 < TICK_S * 1000.0:
                 continue
@@ -155,14 +160,18 @@ def watch_event_loop(loop, threshold_ms=100.0, log=_LOG):
                 return
 
     state["handle"] = loop.call_later(TICK_S, tick)
+    looking = threading.Thread(target=look, name="camsim-loop-watch", daemon=True)
     if asking:
-        threading.Thread(target=look, name="camsim-loop-watch", daemon=True).start()
+        looking.start()
 
     def stop():
         state["stopped"] = True
         if state["handle"] is not None:
             state["handle"].cancel()
         if asking and threading.current_thread() is main:
+            # the handler goes only once the thread that signals has ended: a signal sent after the default
+            # action is back would end the process
+            looking.join()
             signal.signal(SAMPLE_SIGNAL, signal.SIG_DFL)
 
     return stop

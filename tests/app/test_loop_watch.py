@@ -67,3 +67,36 @@ def test_the_watch_leaves_the_signal_as_it_found_it():
 
     assert asyncio.run(main()) not in (signal.SIG_DFL, None)
     assert signal.getsignal(SAMPLE_SIGNAL) == signal.SIG_DFL
+
+
+def test_a_signal_arriving_while_a_stall_is_counted_neither_breaks_nor_ends_the_watch(caplog, monkeypatch):
+    """CI: the handler runs in the loop's thread and can interrupt the tick while it counts the places seen (a
+    garbage collection's callback is enough); with one Counter shared by both, ``most_common`` raised
+    "dictionary changed size during iteration" in the tick, the server logged a traceback and the watch stopped."""
+    import os
+
+    import camsim_explorer.loop_watch as loop_watch
+
+    class Interrupted(loop_watch.Counter):
+        def most_common(self, n=None):  # the signal arrives while the places are read
+            for _ in self:
+                os.kill(os.getpid(), loop_watch.SAMPLE_SIGNAL)
+                time.sleep(0.005)  # Python bytecodes: the handler runs here, mid-iteration
+            return super().most_common(n)
+
+    monkeypatch.setattr(loop_watch, "Counter", Interrupted)
+
+    async def main():
+        stop = watch_event_loop(asyncio.get_running_loop(), threshold_ms=100)
+        await asyncio.sleep(0.05)
+        _hold_the_loop(0.2)
+        await asyncio.sleep(0.1)
+        _hold_the_loop(0.2)  # the watch still watches
+        await asyncio.sleep(0.1)
+        stop()
+
+    with caplog.at_level(logging.WARNING):
+        asyncio.run(main())
+    messages = [r.getMessage() for r in caplog.records]
+    assert not [m for m in messages if "Exception in callback" in m], messages
+    assert len([m for m in messages if "in _hold_the_loop" in m]) >= 2, messages
