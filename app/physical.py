@@ -25,6 +25,7 @@ from camsim_core.simulation.electrons import photon_transfer, system_gain
 from .safe_text import md_text
 from .shown import now, off_the_loop
 from .state import ExplorerState
+from .tab import TabView
 
 __all__ = ["PhysicalView", "SensorControls", "parameter_table", "mtf_curves"]
 
@@ -81,11 +82,11 @@ def _ptc_key(cam):
             cam.exposure, cam.f_stop)
 
 
-class PhysicalView(pn.viewable.Viewer):
+class PhysicalView(TabView):
     """Optics & sensor tab: parameters, diffraction MTF at the current f-number, photon transfer.
 
-    A Panel component (``pn.viewable.Viewer``) following the state's result (``param.depends("state.result")``)
-    through ``when_shown``: at once while its tab is shown, once when it is next shown otherwise. The MTF is
+    A :class:`~camsim_explorer.tab.TabView` following the state's result: at once while its tab is shown,
+    once when it is next shown otherwise. The MTF is
     drawn again only when the f-number or the pixel pitch changed (as new data for the same plot); the
     photon-transfer curve (ten simulated flat fields) is made off the event loop: with a new result in the
     computing thread while the tab is shown, else in a session thread, the note saying so meanwhile.
@@ -105,8 +106,6 @@ class PhysicalView(pn.viewable.Viewer):
     (True, True)
     """
 
-    state = param.ClassSelector(class_=ExplorerState, doc="The session's state: its result's camera is shown.")
-
     def __init__(self, state, when_shown=now, **params):
         self.table = pn.pane.Markdown("", css_classes=["camsim-physical-table"], width=380)
         self.mtf = pn.pane.HoloViews(hv.Curve([]), css_classes=["camsim-mtf"], linked_axes=False)
@@ -118,16 +117,10 @@ class PhysicalView(pn.viewable.Viewer):
         self._mtf_key, self._mtf_pipe = None, None  # (f-number, pitch) drawn, and the plot's data stream
         self._ptc_key = None  # the sensor whose curve (or note) is shown
         self._ptc_held, self._ptc_making = None, None  # (key, (ptc, problem)) made off the loop; key being made
-        self._update_when_shown = when_shown(self.update)
-        self._tab_shown = lambda: getattr(when_shown, "shown", True)
-        super().__init__(state=state, **params)
+        super().__init__(state, when_shown, **params)
         state.preparers.append(self.prepare)
         self._layout = pn.Column(pn.Row(self.table, pn.Column(self.mtf, self.ptc_box, self.note)), name="Optics & sensor")
         self.update()
-
-    @param.depends("state.result", watch=True)
-    def _on_result(self):
-        self._update_when_shown()
 
     def camera(self):
         res = self.state.result
@@ -206,13 +199,6 @@ class PhysicalView(pn.viewable.Viewer):
                                                   title="Photon transfer (EMVA 1288), 10 exposures")
         self.note.object = (f"Slope in the linear range = system gain K = {ptc['gain']:.4g} DN/e-; the variance falls "
                             "where the pixels saturate.")
-
-    def __panel__(self):
-        return self._layout
-
-    def panel(self):
-        """The view's layout (what Panel shows for the view itself)."""
-        return self._layout
 
 
 class SensorControls(pn.viewable.Viewer):

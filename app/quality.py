@@ -13,14 +13,13 @@ from __future__ import annotations
 import holoviews as hv
 import numpy as np
 import panel as pn
-import param
 
 from camsim_core.errors import CamsimError
 from camsim_core.metrics.report import default_measures, measure_images
 
 from .safe_text import md_text
 from .shown import now, off_the_loop
-from .state import ExplorerState
+from .tab import TabView
 
 __all__ = ["QualityView", "measures_for", "channel_colours", "CHANNEL_COLOURS"]
 
@@ -83,12 +82,11 @@ def _color_table(color):
             f"max {color['max']:.2f}\n\n| | | | | | |\n|---|---|---|---|---|---|\n" + "\n".join(rows))
 
 
-class QualityView(pn.viewable.Viewer):
+class QualityView(TabView):
     """MTF curve, SNR table, patch dE table and similarity line, following the state's result.
 
-    A Panel component (``pn.viewable.Viewer``): shown as it is, or with :meth:`panel`. It updates when the
-    state's result changes (``param.depends("state.result")``), through ``when_shown``: at once while its
-    tab is shown, once when the tab is next shown otherwise (:class:`~camsim_explorer.shown.WhenShown`).
+    A :class:`~camsim_explorer.tab.TabView`: it updates when the state's result changes, at once while its
+    tab is shown, once when the tab is next shown otherwise.
     While the tab is shown, a new result is measured in the session's computing thread with the rest of
     the result (:meth:`prepare`, one of ``ExplorerState.preparers``); a result the tab had not measured when
     it opens is measured in a session thread. The event loop, which serves every page, only shows the
@@ -109,8 +107,6 @@ class QualityView(pn.viewable.Viewer):
     True
     """
 
-    state = param.ClassSelector(class_=ExplorerState, doc="The session's state: its result is measured.")
-
     def __init__(self, state, when_shown=now, **params):
         self.report = {}
         self.mtf_plot = pn.pane.HoloViews(_mtf_plot({}), linked_axes=False)
@@ -119,18 +115,12 @@ class QualityView(pn.viewable.Viewer):
         # Panel (1.9) pass its layout parameters to the Bokeh figure, which refuses ``design`` (the tab broke)
         self.mtf = pn.Column(self.mtf_plot, css_classes=["camsim-mtf"], visible=False, margin=0)
         self.text = pn.pane.Markdown("", css_classes=["camsim-quality"], sizing_mode="stretch_width")
-        self._update_when_shown = when_shown(self.update)
-        self._tab_shown = lambda: getattr(when_shown, "shown", True)
         self._measured = None  # (result, measures, (report, problem)) made by ``prepare`` or a session thread
         self._measuring = None  # (result, measures) being measured in a session thread
-        super().__init__(state=state, **params)
+        super().__init__(state, when_shown, **params)
         state.preparers.append(self.prepare)
         self._layout = pn.Column(self.mtf, self.text, name="Image quality", sizing_mode="stretch_width")
         self.update()
-
-    @param.depends("state.result", watch=True)
-    def _on_result(self):
-        self._update_when_shown()
 
     def _measure(self, what, res):
         """``(report, problem)``: the engine's measures ``what`` of ``res``, or why they were not made."""
@@ -206,10 +196,3 @@ class QualityView(pn.viewable.Viewer):
             return
         self._mtf_pipe, self._mtf_channels = hv.streams.Pipe(data=mtf), channels
         self.mtf_plot.object = hv.DynamicMap(lambda data: _mtf_plot(data), streams=[self._mtf_pipe])
-
-    def __panel__(self):
-        return self._layout
-
-    def panel(self):
-        """The view's layout (what Panel shows for the view itself)."""
-        return self._layout

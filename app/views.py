@@ -37,6 +37,7 @@ from . import state as state_module
 from .safe_text import html_text, md_text
 from .shown import now
 from .state import exposure_warnings, mean_level
+from .tab import TabView
 
 
 __all__ = ["held", "sensor_colors", "scene_srgb", "raw_rgb", "planes_rgb", "rgba32", "screen_part", "histogram", "de_range",
@@ -1044,12 +1045,12 @@ class ResultsView:
 
 
 # -- the scene: one plane, sRGB, spectra of clicked pixels, metadata -------
-class SceneView(pn.viewable.Viewer):
+class SceneView(TabView):
     """The scene before the camera: sRGB and one plane side by side (sharing zoom), spectra of
     clicked pixels (numbered markers in their curve's colour) and of box-selected regions.
 
-    A Panel component (``pn.viewable.Viewer``) following the state's scene and wavelength
-    (``param.depends``) through ``when_shown``, the tab's gate; its wavelength slider sets the state's.
+    A :class:`~camsim_explorer.tab.TabView` following the state's scene and wavelength through its tab's
+    gate; its wavelength slider sets the state's.
 
     Examples
     --------
@@ -1060,8 +1061,6 @@ class SceneView(pn.viewable.Viewer):
     >>> state.wavelength, view.plane_label.object.startswith("Radiance at 600 nm")
     (600.0, True)
     """
-
-    state = param.ClassSelector(class_=state_module.ExplorerState, doc="The session's state: its scene is shown.")
 
     MAX_SPECTRA = 6
     COLORS = Category10[10]
@@ -1128,8 +1127,7 @@ class SceneView(pn.viewable.Viewer):
         self.wavelength = pn.widgets.DiscreteSlider(name="Wavelength (nm)", options=[550.0], value=550.0,
                                                     css_classes=["w-wavelength"], width=280)
         self._scene = None
-        self._update_when_shown = when_shown(self.update)
-        super().__init__(state=state, **params)
+        super().__init__(state, when_shown, **params)
         self._layout = pn.Column(pn.Row(self.wavelength, self.clear),
                                  pn.Row(self.rgb_pane, self.plane_pane, sizing_mode="stretch_width"),
                                  pn.Row(self.spectrum_pane, self.meta, sizing_mode="stretch_width"),
@@ -1141,11 +1139,8 @@ class SceneView(pn.viewable.Viewer):
         self.state.wavelength = float(self.wavelength.value)
 
     @param.depends("state.scene", "state.wavelength", watch=True)
-    def _on_scene(self):
+    def _on_change(self):
         self._update_when_shown()
-
-    def __panel__(self):
-        return self._layout
 
     def scene(self):
         try:
@@ -1245,11 +1240,10 @@ class SceneView(pn.viewable.Viewer):
 
 
 # -- the camera: sensor curves and mosaic tile -------------------------------
-class CameraView(pn.viewable.Viewer):
+class CameraView(TabView):
     """Sensor curves and the mosaic tile of the camera shown; redrawn only when those change.
 
-    A Panel component (``pn.viewable.Viewer``) following the state's result (``param.depends("state.result")``)
-    through ``when_shown``, the tab's gate (:class:`~camsim_explorer.shown.WhenShown`).
+    A :class:`~camsim_explorer.tab.TabView` following the state's result through its tab's gate.
 
     Examples
     --------
@@ -1258,8 +1252,6 @@ class CameraView(pn.viewable.Viewer):
     >>> view.curve_source.data["label"]
     ['L', 'M', 'S']
     """
-
-    state = param.ClassSelector(class_=state_module.ExplorerState, doc="The session's state: its result's camera.")
 
     def __init__(self, state, when_shown=now, **params):
         self._key = None
@@ -1286,19 +1278,13 @@ class CameraView(pn.viewable.Viewer):
                                 css_classes=["camsim-sensors"], sizing_mode="stretch_width")
         self.tile = pn.Column(self.tile_label, pn.pane.Bokeh(tile), css_classes=["camsim-tile"], width=280)
         self.info = pn.pane.Markdown("", css_classes=["camsim-camera-info"], sizing_mode="stretch_width")
-        self._update_when_shown = when_shown(self.update)
-        super().__init__(state=state, **params)
+        super().__init__(state, when_shown, **params)
         self._layout = pn.Column(self.info, pn.Row(self.curves, self.tile), sizing_mode="stretch_width")
         self.update()
 
-    @param.depends("state.result", watch=True)
-    def _on_result(self):
-        self._update_when_shown()
-
-    def __panel__(self):
-        return self._layout
-
     def update(self):
+        """Show the camera of the state's result: its name and image; its sensor curves and mosaic tile drawn
+        again only when they changed."""
         res = self.state.result
         if res is None:
             return
