@@ -186,13 +186,22 @@ def served_without_cdn():
     load, a page of the compare tab loaded 182 stylesheets from cdn.holoviz.org (refused by the page's
     Content-Security-Policy, and unreachable without the internet); the mode was pinned to ``server``
     (``camsim_explorer.serve.serve_resources_locally``) and it happened again. For ``camsim serve`` the
-    answer is always "this server". True when applied. Not applied in a notebook, which may use the CDN.
+    answer is always "this server".
+
+    A second path led there too (a third time, 219 stylesheets, in a sweep's plot): Panel points a
+    component's stylesheets at the page's ``dist_url`` (``panel.io.resources.patch_stylesheet``), and at
+    the CDN when the document has none yet, as a page's document has while it is built (before Panel writes
+    the page) or a model made for no document. ``patch_stylesheet`` is wrapped so that a CDN target is this
+    server's path. True when applied. Not applied in a notebook, which may use the CDN.
     """
     import panel.io.resources as resources
+    import panel.reactive as reactive
     import panel.template.base as template
 
     original = getattr(resources, "use_cdn", None)
-    if original is None or not hasattr(template, "use_cdn"):
+    patch = getattr(resources, "patch_stylesheet", None)
+    if original is None or patch is None or not hasattr(template, "use_cdn") \
+            or getattr(reactive, "patch_stylesheet", None) is not patch and not getattr(reactive.patch_stylesheet, "camsim", False):
         return False
     if getattr(original, "camsim", False):
         return True
@@ -200,9 +209,17 @@ def served_without_cdn():
     def use_cdn():
         return False
 
-    use_cdn.camsim = True
-    use_cdn.original = original
+    def patch_stylesheet(stylesheet, dist_url):
+        if dist_url == resources.CDN_DIST:  # no page's address known: this server's, as Panel's own server gives
+            from panel.io.state import state
+
+            dist_url = f"{state.rel_path}/{resources.LOCAL_DIST}" if state.rel_path else resources.LOCAL_DIST
+        return patch(stylesheet, dist_url)
+
+    use_cdn.camsim = patch_stylesheet.camsim = True
+    use_cdn.original, patch_stylesheet.original = original, patch
     resources.use_cdn = template.use_cdn = use_cdn
+    resources.patch_stylesheet = reactive.patch_stylesheet = patch_stylesheet
     return True
 
 
@@ -234,7 +251,9 @@ HOOKS = {
     "address_writer": lambda: _has("panel.io.location", "Location", "_update_query")
     and hasattr(__import__("panel").io.location.Location(), "_synced"),
     "served_without_cdn": lambda: _has("panel.io.resources", "use_cdn") and _has("panel.template.base", "use_cdn")
-    and "use_cdn()" in __import__("inspect").getsource(__import__("panel").io.resources.get_dist_path),
+    and "use_cdn()" in __import__("inspect").getsource(__import__("panel").io.resources.get_dist_path)
+    and _has("panel.io.resources", "patch_stylesheet") and _has("panel.reactive", "patch_stylesheet")
+    and "patch_stylesheet(stylesheet, dist_url)" in __import__("inspect").getsource(__import__("panel").reactive.Reactive),
     "tornado_app": lambda: _has("bokeh.server.server", "Server") and "_tornado" in _init_names("bokeh.server.server", "BaseServer"),
 }
 

@@ -228,17 +228,47 @@ def test_the_server_serves_its_resources_itself_whatever_the_environment(monkeyp
         settings.resources.unset_value()
 
 
-def test_a_served_page_never_asks_the_cdn_even_inside_a_cdn_rendering():
+@pytest.fixture
+def without_cdn():
+    """``hooks.served_without_cdn`` applied for one test, and Panel given back as it was (a notebook may use
+    the CDN)."""
     import panel.io.resources as resources
+    import panel.reactive as reactive
     import panel.template.base as template
 
     from camsim_explorer.compat import hooks
 
-    original = resources.use_cdn
-    try:
-        assert hooks.served_without_cdn()
-        with resources.set_resource_mode("cdn"):  # what a notebook rendering does, process-wide
-            assert not resources.use_cdn() and not template.use_cdn()
-            assert not resources.get_dist_path().startswith("http")
-    finally:
-        resources.use_cdn = template.use_cdn = getattr(original, "original", original)
+    use_cdn, patch = resources.use_cdn, resources.patch_stylesheet
+    yield hooks.served_without_cdn
+    resources.use_cdn = template.use_cdn = getattr(use_cdn, "original", use_cdn)
+    resources.patch_stylesheet = reactive.patch_stylesheet = getattr(patch, "original", patch)
+
+
+def test_a_served_page_never_asks_the_cdn_even_inside_a_cdn_rendering(without_cdn):
+    import panel.io.resources as resources
+    import panel.template.base as template
+
+    assert without_cdn()
+    with resources.set_resource_mode("cdn"):  # what a notebook rendering does, process-wide
+        assert not resources.use_cdn() and not template.use_cdn()
+        assert not resources.get_dist_path().startswith("http")
+
+
+def test_a_component_made_for_a_page_not_yet_written_takes_its_stylesheets_from_this_server(without_cdn):
+    """A page's document has no ``dist_url`` until Panel writes the page (it is built before, in camsim's
+    builder thread), and Panel pointed the stylesheets of a component made then at cdn.holoviz.org: a sweep's
+    plot loaded 219 stylesheets the page's policy refused (CI)."""
+    import panel as pn
+    import panel.io.resources as resources
+    from bokeh.document import Document
+    from bokeh.models import ImportedStyleSheet
+
+    def urls(doc):
+        model = pn.widgets.Button(name="Run").get_root(doc)
+        return [s.url for s in model.select({"type": ImportedStyleSheet})]
+
+    assert any(u.startswith(resources.CDN_DIST) for u in urls(Document()))  # Panel's own answer: the CDN
+    assert without_cdn()
+    made = urls(Document())
+    assert made and not any(u.startswith("http") for u in made), made
+    assert any(resources.LOCAL_DIST in u for u in made), made
