@@ -1,6 +1,5 @@
 """The explorer's incremental pipeline (camsim_core.cache): what re-runs, and exact equality with a fresh run."""
 
-import time
 
 import numpy as np
 import pytest
@@ -72,16 +71,24 @@ def test_exposure_and_f_stop_moves_rescale_the_kept_sums_with_the_numbers_of_a_f
         return real_weighted_sum(data, weights)
 
     monkeypatch.setattr(sensor, "weighted_sum", counted)
-    # the ideal side made slow, so that (on two cores) the camera image's L*a*b* is made while it runs
+    # the ideal side, when it runs beside (in a pool's thread), waits until the camera image's side has come to
+    # its L*a*b*: the case of a large scene, whose ideal side is the longer. (A 50 ms sleep made that depend on
+    # the machine's load: the camera side came after the ideal one once, in a loaded run.)
+    import threading
+
     from camsim_core.rendering import ideal as ideal_module
 
     real_render_ideal, real_camera_lab, early = ideal_module.render_ideal, Pipeline._camera_lab, []
+    camera_side_there = threading.Event()
 
     def slow_render_ideal(*args, **kw):
-        time.sleep(0.05)
+        if threading.current_thread() is not threading.main_thread():
+            camera_side_there.wait(timeout=30)
+            camera_side_there.clear()
         return real_render_ideal(*args, **kw)
 
     def camera_lab(self, *args):
+        camera_side_there.set()
         early.append(real_camera_lab(self, *args))
         return early[-1]
 
