@@ -48,7 +48,7 @@ from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
 from .safe_text import PlainText, html_text, md_text
 from .shown import now
 from .state import short_repr
-from .views import once
+from .views import ASPECT_TOLERANCE, once
 
 hv.Store.set_current_backend("bokeh")
 
@@ -61,6 +61,19 @@ SLOTS = MAX_PINNED + 1
 # the toolbar on the right: above, it shares its row with the title and covers it at this width
 IMAGE_OPTS = dict(frame_width=250, data_aspect=1, xaxis=None, yaxis=None, toolbar="right",
                   tools=["hover"], active_tools=["wheel_zoom"], framewise=True)
+#: The highest an image's frame gets (pixels): a tall image's frame is narrower instead.
+MAX_FRAME_HEIGHT = 375
+
+
+def _frame(aspect):
+    """``IMAGE_OPTS`` with a frame of the images' shape (``aspect`` = height / width): 250 px wide, or
+    ``MAX_FRAME_HEIGHT`` high. HoloViews sizes a plot's frame once, when it is made; a frame made for the
+    2 x 2 placeholder was square, and a wide scene's images sat in it between white bands. (Changing the
+    Bokeh figure's frame size afterwards clips its canvas without mapping the image anew.)"""
+    width, height = IMAGE_OPTS["frame_width"], IMAGE_OPTS["frame_width"] * aspect
+    if height > MAX_FRAME_HEIGHT:
+        width, height = MAX_FRAME_HEIGHT / aspect, MAX_FRAME_HEIGHT
+    return dict(IMAGE_OPTS, frame_width=max(1, round(width)), frame_height=max(1, round(height)))
 _WIN_COLOURS = np.array([[31, 119, 180], [255, 127, 14], [200, 200, 200]]) / 255.0
 
 
@@ -249,23 +262,49 @@ class CompareView:
                                        label="Download the report (HTML)", button_type="success",
                                        css_classes=["w-report"], width=260)
 
-    def _ensure_plots(self):
-        """Make the plots (once) and put them on the tab."""
+    def _ensure_plots(self, aspect=None):
+        """Make the plots (once) and put them on the tab; image frames of ``aspect`` (height / width; None:
+        as they are, square at first), made anew when the images' aspect leaves ``ASPECT_TOLERANCE`` of
+        theirs (another scene, a sensor's crop)."""
         if self._built:
+            if aspect is not None and max(aspect / self._aspect, self._aspect / aspect) > ASPECT_TOLERANCE:
+                self._draw_images(aspect)
             return
         self._built = True
-        self._build_plots()
+        self._build_plots(1.0 if aspect is None else aspect)
         # rows that wrap: five designs, or a histogram beside a wide table, do not fit a 1366 px window's width
         self.views[:] = [pn.Row(*self.slots, styles=_WRAP), pn.Row(self.hist_pane, self.table, styles=_WRAP),
                          pn.pane.Markdown("### A/B difference"), pn.Row(self.a_select, self.b_select), self.ab_text,
                          pn.Row(*self.ab_panes, styles=_WRAP)]
         self.sweep_area[:] = [self.sweep_pane]
 
-    def _build_plots(self):
+    def _build_plots(self, aspect=1.0):
         blank = np.zeros((2, 2, 3))
         self.render_pipes = [streams.Pipe(data=(blank, "")) for _ in range(SLOTS)]
         self._shown = [None] * SLOTS  # (name, rendered, dE map, scale) each slot shows
         self.de_pipes = [streams.Pipe(data=(np.zeros((2, 2)), "", 20.0)) for _ in range(SLOTS)]
+        self.ab_pipe = streams.Pipe(data=(np.zeros((2, 2)), np.zeros((2, 2, 3)), 20.0))
+        self.render_panes = [pn.pane.HoloViews(css_classes=["camsim-compare-rendered"], linked_axes=True)
+                             for _ in self.render_pipes]
+        self.de_panes = [pn.pane.HoloViews(css_classes=["camsim-compare-de"], linked_axes=True) for _ in self.de_pipes]
+        self.ab_panes = [pn.pane.HoloViews(css_classes=["camsim-ab-de"], linked_axes=True),
+                         pn.pane.HoloViews(css_classes=["camsim-ab-wins"], linked_axes=True)]
+        self._draw_images(aspect)
+        # one column per design slot, shown or hidden as a whole (a HoloViews pane's own ``visible``
+        # would be pushed onto its Bokeh figure, which refuses the page template's settings)
+        self.slots = [pn.Column(r, d, visible=False, css_classes=["camsim-compare-slot"])
+                      for r, d in zip(self.render_panes, self.de_panes)]
+        self.histogram = HistogramPlot()
+        self.hist_pane = pn.pane.Bokeh(self.histogram.figure, css_classes=["camsim-compare-hist"])
+        # the sweep plot changes its number of curves as designs are swept: its pane gets a new overlay
+        self.sweep_pane = pn.pane.HoloViews(self._sweep_plot(([], "noise_sigma", "CIELAB")),
+                                            css_classes=["camsim-sweep-plot"], linked_axes=False)
+        self._tap = None
+
+    def _draw_images(self, aspect):
+        """The image plots (each design's rendering and dE map, the A/B pair), in frames of ``aspect``; each
+        shows its pipe's last data."""
+        self._aspect, opts = aspect, _frame(aspect)
 
         def show_rgb(data):
             rgb, title = data
@@ -275,33 +314,15 @@ class CompareView:
             de, title, top = data
             return hv.Image(de, bounds=_bounds(de.shape), vdims=["dE"]).opts(title=title, clim=(0, top))
 
-        self.render_panes = [
-            pn.pane.HoloViews(hv.DynamicMap(show_rgb, streams=[p]).opts(hv.opts.RGB(**IMAGE_OPTS)),
-                              css_classes=["camsim-compare-rendered"], linked_axes=True)
-            for p in self.render_pipes]
-        self.de_panes = [
-            pn.pane.HoloViews(hv.DynamicMap(show_de, streams=[p]).opts(
-                hv.opts.Image(cmap="inferno", colorbar=True, **IMAGE_OPTS)),
-                css_classes=["camsim-compare-de"], linked_axes=True)
-            for p in self.de_pipes]
-        # one column per design slot, shown or hidden as a whole (a HoloViews pane's own ``visible``
-        # would be pushed onto its Bokeh figure, which refuses the page template's settings)
-        self.slots = [pn.Column(r, d, visible=False, css_classes=["camsim-compare-slot"])
-                      for r, d in zip(self.render_panes, self.de_panes)]
-        self.histogram = HistogramPlot()
-        self.hist_pane = pn.pane.Bokeh(self.histogram.figure, css_classes=["camsim-compare-hist"])
-        # the sweep plot changes its number of curves as designs are swept: its pane gets a new overlay
-        self.ab_pipe = streams.Pipe(data=(np.zeros((2, 2)), np.zeros((2, 2, 3)), 20.0))
-        ab_de = hv.DynamicMap(lambda data: hv.Image(data[0], bounds=_bounds(data[0].shape), vdims=["dE"]).opts(
-            clim=(0, data[2]), title="A/B: dE between the renderings"), streams=[self.ab_pipe]).opts(
-            hv.opts.Image(cmap="inferno", colorbar=True, **IMAGE_OPTS))
-        ab_wins = hv.DynamicMap(lambda data: hv.RGB(data[1], bounds=_bounds(data[1].shape)).opts(
-            title="closer to ideal: A blue, B orange"), streams=[self.ab_pipe]).opts(hv.opts.RGB(**IMAGE_OPTS))
-        self.ab_panes = [pn.pane.HoloViews(ab_de, css_classes=["camsim-ab-de"], linked_axes=True),
-                         pn.pane.HoloViews(ab_wins, css_classes=["camsim-ab-wins"], linked_axes=True)]
-        self.sweep_pane = pn.pane.HoloViews(self._sweep_plot(([], "noise_sigma", "CIELAB")),
-                                            css_classes=["camsim-sweep-plot"], linked_axes=False)
-        self._tap = None
+        for pane, pipe in zip(self.render_panes, self.render_pipes):
+            pane.object = hv.DynamicMap(show_rgb, streams=[pipe]).opts(hv.opts.RGB(**opts))
+        for pane, pipe in zip(self.de_panes, self.de_pipes):
+            pane.object = hv.DynamicMap(show_de, streams=[pipe]).opts(hv.opts.Image(cmap="inferno", colorbar=True, **opts))
+        self.ab_panes[0].object = hv.DynamicMap(lambda data: hv.Image(
+            data[0], bounds=_bounds(data[0].shape), vdims=["dE"]).opts(clim=(0, data[2]), title="A/B: dE between the renderings"),
+            streams=[self.ab_pipe]).opts(hv.opts.Image(cmap="inferno", colorbar=True, **opts))
+        self.ab_panes[1].object = hv.DynamicMap(lambda data: hv.RGB(data[1], bounds=_bounds(data[1].shape)).opts(
+            title="closer to ideal: A blue, B orange"), streams=[self.ab_pipe]).opts(hv.opts.RGB(**opts))
 
     # -- pinning -----------------------------------------------------------------
     def pin(self, name=""):
@@ -506,7 +527,8 @@ class CompareView:
             self.views[:] = [self.table]
             self._status(results, top)
             return
-        self._ensure_plots()
+        h, w = np.shape(results[0].rendered)[:2] if results else (0, 0)
+        self._ensure_plots(h / w if h and w else None)
         for i in range(SLOTS):
             if i < len(results):
                 r = results[i]

@@ -198,3 +198,44 @@ def test_the_histogram_changes_in_one_held_batch(monkeypatch):
         view.unpin("cones")
     assert len(holds) >= 3 and all(h is not None for h in holds), holds
     assert doc.callbacks.hold_value is None  # and let go of afterwards
+
+
+def test_each_image_frame_takes_the_shape_of_its_image():
+    """A wide scene's images sat in square frames with white bands above and below (HoloViews sized each frame
+    once, for the first, 2 x 2 placeholder); the frames now take the images' shape (square pixels, the frame
+    filled, at most 375 px high), made anew when a scene of another shape comes."""
+    import panel as pn
+    from bokeh.models import Image, ImageRGBA, Plot
+
+    from camsim_explorer.views import ASPECT_TOLERANCE
+
+    FRAME_WIDTH, MAX_FRAME_HEIGHT = 250, 375  # camsim_explorer.compare's
+
+    def figures(root):  # what a page shows: the Bokeh figures of the tab's images (visible design slots, A/B)
+        images = [f for f in root.select({"type": Plot})
+                  if any(isinstance(r.glyph, (Image, ImageRGBA)) for r in f.renderers if hasattr(r, "glyph"))]
+        return [f for f in images if f.title.text]  # a slot without a design has no title
+
+    state = ExplorerState()  # cacaphony290: wider than high
+    view = CompareView(state)
+    root = pn.Column(view.views).get_root()  # the page shows the tab before its images come
+    view.pin("DCS-200")
+    state.camera = "human-cones"
+    h, w = state.result.rendered.data.shape[:2]
+    assert h < 0.8 * w  # a wide scene: a square frame would leave bands
+    shown = figures(root)
+    assert len(shown) >= 4, [f.title.text for f in shown]
+    for fig in shown:
+        assert fig.frame_width == FRAME_WIDTH, fig.title.text
+        assert fig.frame_height == pytest.approx(FRAME_WIDTH * h / w, abs=1), fig.title.text
+        # the ranges are the image's extent, in the frame's proportions: square pixels, no band
+        x_span, y_span = fig.x_range.end - fig.x_range.start, fig.y_range.end - fig.y_range.start
+        assert y_span / x_span == pytest.approx(fig.frame_height / fig.frame_width, rel=ASPECT_TOLERANCE - 1)
+    # a scene taller than wide: new frames, at most MAX_FRAME_HEIGHT high, of the images' shape
+    state.scene = "munsell"
+    assert state.set_chart("rows=8, cols=2")
+    h, w = state.result.rendered.data.shape[:2]
+    assert h / w > MAX_FRAME_HEIGHT / FRAME_WIDTH, (h, w)
+    for fig in figures(root):
+        assert fig.frame_height == MAX_FRAME_HEIGHT
+        assert fig.frame_width == pytest.approx(MAX_FRAME_HEIGHT * w / h, abs=1)
