@@ -161,21 +161,14 @@ def _pull_waits_for_the_first_result(session, state):
         deadline = time.monotonic() + PULL_SETTLE_S
         while state.computing and time.monotonic() < deadline:
             await asyncio.sleep(POLL_S / 5)
-        changed = []
-
-        def on_change(event):
-            changed.append(True)
-
-        urls = _stylesheet_urls(doc)
-        doc.on_change(on_change)
+        unchanged = _Unchanged(doc)
         try:
             serialized = await _build_off_loop.run_in_builder(doc.to_json)
         except Exception:  # changed under the serializer
             serialized = None
         finally:
-            doc.remove_on_change(on_change)
-        if serialized is None or changed or getattr(doc.callbacks, "hold_value", None) is not None \
-                or _stylesheet_urls(doc) != urls:
+            unchanged.stop()
+        if serialized is None or not unchanged.holds():
             _log.info("a page's pull came before its serialization and the page changed meanwhile: serialized "
                       "on the event loop")
             return await bokehs(message, connection)  # Bokeh's (a coroutine: it takes the document's lock)
@@ -204,6 +197,26 @@ def _stylesheet_urls(doc):
     return {m.id: m.url for m in list(doc.models) if isinstance(m, ImportedStyleSheet)}
 
 
+class _Unchanged:
+    """Watches a document from now on: :meth:`holds` while it is as it was (no change event, no change held
+    back, and the same stylesheet addresses, which Panel changes at hand-out without an event), so that a
+    serialization made meanwhile still stands for it."""
+
+    def __init__(self, doc):
+        self.doc, self.urls, self.changed = doc, _stylesheet_urls(doc), False
+        doc.on_change(self._on_change)
+
+    def _on_change(self, event):
+        self.changed = True
+
+    def stop(self):
+        self.doc.remove_on_change(self._on_change)
+
+    def holds(self):
+        return (not self.changed and getattr(self.doc.callbacks, "hold_value", None) is None
+                and _stylesheet_urls(self.doc) == self.urls)
+
+
 class _AsSerialized:
     """Stands for a document in Bokeh's ``PULL-DOC-REPLY`` message: its serialization made earlier."""
 
@@ -221,13 +234,7 @@ async def _serialize_for_pull(session, speculative=True):
     if session.destroyed or session.connection_count > 0:
         return
     doc = session.document
-    urls = _stylesheet_urls(doc)  # Panel changes these at hand-out without document events
-    changed = []
-
-    def on_change(event):
-        changed.append(True)
-
-    doc.on_change(on_change)  # before the serialization starts: a change made meanwhile makes it stale
+    unchanged = _Unchanged(doc)  # before the serialization starts: a change made meanwhile makes it stale
     try:
         if _build_off_loop.installed():
             _build_off_loop.SPECULATIVE.set(speculative)  # this task's own context (a spare: at low priority)
@@ -235,18 +242,18 @@ async def _serialize_for_pull(session, speculative=True):
         else:
             serialized = doc.to_json()
     except Exception:  # changed under the serializer: the pull serializes it as usual
-        doc.remove_on_change(on_change)
+        unchanged.stop()
         return
-    if session.destroyed or session.connection_count > 0 or changed:
-        doc.remove_on_change(on_change)
+    if session.destroyed or session.connection_count > 0 or unchanged.changed:
+        unchanged.stop()
         return
     _log.info("a page (%s) serialized off the event loop", "spare" if speculative else "built for its request")
     bokehs = session._handle_pull
 
     async def handle_pull(message, connection):  # as Bokeh's: a coroutine
         del session._handle_pull  # later pulls: Bokeh's own
-        doc.remove_on_change(on_change)
-        if changed or getattr(doc.callbacks, "hold_value", None) is not None or _stylesheet_urls(doc) != urls:
+        unchanged.stop()
+        if not unchanged.holds():
             _log.info("a spare page changed after it was serialized: its pull serializes it anew")
             return await bokehs(message, connection)
         _log.info("a page's first pull answered with its serialization made off the event loop")
