@@ -13,7 +13,10 @@ the status pane (the result shown) by a fact it prints:
 - Optics & sensor: the exposure it lists is the status pane's;
 - Compare designs and Experiments: their message (built, no error);
 
-and on every tab, every plot's title fits over its plot (titles were cut at the toolbar).
+and on every tab, every plot's title fits over its plot (titles were cut at the toolbar), once the tab's
+plots are drawn: Optics & sensor's diffraction MTF at the f-number shown (and the photon transfer of an
+electron-level camera), Image quality's MTF on the slanted edge; none on the Experiments tab before a
+run. (The check of the titles alone passed on a tab whose plots were not drawn yet.)
 
 A screenshot of the Image quality tab for each chart goes to
 ``test-artifacts/walk-quality-CHART-CAMERA.png``.
@@ -23,7 +26,7 @@ from __future__ import annotations
 
 import pytest
 
-from app_helpers import Page, cut_titles, eventually, server_log
+from app_helpers import Page, cut_titles, eventually, server_log, shown_titles
 
 pytestmark = pytest.mark.browser
 
@@ -32,6 +35,8 @@ TABS = ("Results", "Scene", "Camera", "Image quality", "Compare designs", "Exper
 CHANGES = [("w-scene", "macbeth"), ("w-camera", "gaussian-3"), ("w-scene", "slanted-edge"), ("w-camera", "imx174"),
            ("w-scene", "cacaphony290"), ("w-camera", "kodak-dcs200-ir")]
 CHARTS = ("macbeth", "slanted-edge", "zone-plate", "stripes")
+#: The electron-level cameras among CHANGES: the Optics & sensor tab plots their photon transfer.
+PHOTON_CAMERAS = ("imx174",)
 
 MARKDOWN_JS = ("e => { const r = e.shadowRoot || e; "
                "return (r.querySelector('.markdown') || r.querySelector('div') || e).innerText; }")
@@ -71,6 +76,14 @@ def _check_tab(page, title, want):
             assert "Pin designs" in _pane_text(page, ".camsim-sweep-message")
         elif title == "Experiments":
             assert "Figure 1.14" in _pane_text(page, ".camsim-exp-message")
+        titles = shown_titles(page)  # the plots each tab draws for this design are there before their titles count
+        if title == "Optics & sensor":
+            assert any(t.startswith(f"Diffraction MTF at f/{s['params']['f_stop']:g} ") for t in titles), titles
+            assert any(t.startswith("Photon transfer") for t in titles) == (want["camera"] in PHOTON_CAMERAS), titles
+        elif title == "Image quality" and want["scene"] == "slanted-edge":
+            assert any(t.startswith("MTF50 ") for t in titles), titles
+        elif title == "Experiments":
+            assert titles == [], titles  # no empty axes before a run
         assert cut_titles(page) == []  # every plot's title over its plot, whole
 
     eventually(check, timeout=60)
