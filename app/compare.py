@@ -89,6 +89,12 @@ def _bounds(shape):
     return (0, 0, 1.0, h / w)
 
 
+def _aspect(image):
+    """An image's height / width (1 for an empty one)."""
+    h, w = np.shape(image)[:2]
+    return h / w if h and w else 1.0
+
+
 def _design_only(params):
     """A design's own settings, every one (defaults filled in), but what the comparison shares (scene, viewing...)."""
     return {k: v for k, v in dict(DESIGN_DEFAULTS, **params).items() if k not in _SHARED}
@@ -263,12 +269,9 @@ class CompareView:
                                        css_classes=["w-report"], width=260)
 
     def _ensure_plots(self, aspect=None):
-        """Make the plots (once) and put them on the tab; image frames of ``aspect`` (height / width; None:
-        as they are, square at first), made anew when the images' aspect leaves ``ASPECT_TOLERANCE`` of
-        theirs (another scene, a sensor's crop)."""
+        """Make the plots (once) and put them on the tab, image frames of ``aspect`` (height / width; None:
+        square until the first images come)."""
         if self._built:
-            if aspect is not None and max(aspect / self._aspect, self._aspect / aspect) > ASPECT_TOLERANCE:
-                self._draw_images(aspect)
             return
         self._built = True
         self._build_plots(1.0 if aspect is None else aspect)
@@ -289,7 +292,10 @@ class CompareView:
         self.de_panes = [pn.pane.HoloViews(css_classes=["camsim-compare-de"], linked_axes=True) for _ in self.de_pipes]
         self.ab_panes = [pn.pane.HoloViews(css_classes=["camsim-ab-de"], linked_axes=True),
                          pn.pane.HoloViews(css_classes=["camsim-ab-wins"], linked_axes=True)]
-        self._draw_images(aspect)
+        self._frames = {}  # pane -> the aspect of its image frame
+        for i in range(SLOTS):
+            self._fit_slot(i, aspect)
+        self._fit_ab(aspect)
         # one column per design slot, shown or hidden as a whole (a HoloViews pane's own ``visible``
         # would be pushed onto its Bokeh figure, which refuses the page template's settings)
         self.slots = [pn.Column(r, d, visible=False, css_classes=["camsim-compare-slot"])
@@ -301,28 +307,47 @@ class CompareView:
                                             css_classes=["camsim-sweep-plot"], linked_axes=False)
         self._tap = None
 
-    def _draw_images(self, aspect):
-        """The image plots (each design's rendering and dE map, the A/B pair), in frames of ``aspect``; each
-        shows its pipe's last data."""
-        self._aspect, opts = aspect, _frame(aspect)
+    @staticmethod
+    def _show_rgb(data):
+        rgb, title = data
+        return hv.RGB(rgb, bounds=_bounds(rgb.shape)).opts(title=title)
 
-        def show_rgb(data):
-            rgb, title = data
-            return hv.RGB(rgb, bounds=_bounds(rgb.shape)).opts(title=title)
+    @staticmethod
+    def _show_de(data):
+        de, title, top = data
+        return hv.Image(de, bounds=_bounds(de.shape), vdims=["dE"]).opts(title=title, clim=(0, top))
 
-        def show_de(data):
-            de, title, top = data
-            return hv.Image(de, bounds=_bounds(de.shape), vdims=["dE"]).opts(title=title, clim=(0, top))
+    def _refit(self, pane, aspect):
+        """Whether ``pane``'s image frame must be made anew for images of ``aspect`` (height / width): made
+        for another shape, beyond ``ASPECT_TOLERANCE`` (another scene, a sensor's crop). A plot is made anew
+        only then, and only for a pane about to show such an image (a hidden slot waits until it is used)."""
+        held = self._frames.get(pane)
+        if held is not None and max(aspect / held, held / aspect) <= ASPECT_TOLERANCE:
+            return False
+        self._frames[pane] = aspect
+        return True
 
-        for pane, pipe in zip(self.render_panes, self.render_pipes):
-            pane.object = hv.DynamicMap(show_rgb, streams=[pipe]).opts(hv.opts.RGB(**opts))
-        for pane, pipe in zip(self.de_panes, self.de_pipes):
-            pane.object = hv.DynamicMap(show_de, streams=[pipe]).opts(hv.opts.Image(cmap="inferno", colorbar=True, **opts))
-        self.ab_panes[0].object = hv.DynamicMap(lambda data: hv.Image(
-            data[0], bounds=_bounds(data[0].shape), vdims=["dE"]).opts(clim=(0, data[2]), title="A/B: dE between the renderings"),
-            streams=[self.ab_pipe]).opts(hv.opts.Image(cmap="inferno", colorbar=True, **opts))
-        self.ab_panes[1].object = hv.DynamicMap(lambda data: hv.RGB(data[1], bounds=_bounds(data[1].shape)).opts(
-            title="closer to ideal: A blue, B orange"), streams=[self.ab_pipe]).opts(hv.opts.RGB(**opts))
+    def _fit_slot(self, i, aspect):
+        """Slot ``i``'s rendering and dE map in frames of ``aspect``, each showing its pipe's last data."""
+        opts = _frame(aspect)
+        if self._refit(self.render_panes[i], aspect):
+            self.render_panes[i].object = hv.DynamicMap(self._show_rgb, streams=[self.render_pipes[i]]).opts(
+                hv.opts.RGB(**opts))
+        if self._refit(self.de_panes[i], aspect):
+            self.de_panes[i].object = hv.DynamicMap(self._show_de, streams=[self.de_pipes[i]]).opts(
+                hv.opts.Image(cmap="inferno", colorbar=True, **opts))
+
+    def _fit_ab(self, aspect):
+        """The A/B pair in frames of ``aspect``."""
+        opts = _frame(aspect)
+        if self._refit(self.ab_panes[0], aspect):
+            self.ab_panes[0].object = hv.DynamicMap(lambda data: hv.Image(
+                data[0], bounds=_bounds(data[0].shape), vdims=["dE"]).opts(clim=(0, data[2]),
+                                                                            title="A/B: dE between the renderings"),
+                streams=[self.ab_pipe]).opts(hv.opts.Image(cmap="inferno", colorbar=True, **opts))
+        if self._refit(self.ab_panes[1], aspect):
+            self.ab_panes[1].object = hv.DynamicMap(lambda data: hv.RGB(data[1], bounds=_bounds(data[1].shape)).opts(
+                title="closer to ideal: A blue, B orange"), streams=[self.ab_pipe]).opts(hv.opts.RGB(**opts))
 
     # -- pinning -----------------------------------------------------------------
     def pin(self, name=""):
@@ -527,11 +552,11 @@ class CompareView:
             self.views[:] = [self.table]
             self._status(results, top)
             return
-        h, w = np.shape(results[0].rendered)[:2] if results else (0, 0)
-        self._ensure_plots(h / w if h and w else None)
+        self._ensure_plots(_aspect(results[0].rendered) if results else None)
         for i in range(SLOTS):
             if i < len(results):
                 r = results[i]
+                self._fit_slot(i, _aspect(r.rendered))
                 de = r.error_map(metric)
                 de = de if de is not None else r.delta_e
                 # a live move re-sends the live design's images only (and the maps when the shared scale moves);
@@ -615,6 +640,7 @@ class CompareView:
         tie = a.error_map(metric) == b.error_map(metric)
         idx = np.where(tie, 2, np.where(ab["a_wins"], 0, 1))
         top = shared_scale([ab["delta_e"]])
+        self._fit_ab(_aspect(ab["delta_e"]))
         self.ab_pipe.send((ab["delta_e"], _WIN_COLOURS[idx], top))
         m = ab["measures"]
         a_name, b_name = md_text(a.name), md_text(b.name)
