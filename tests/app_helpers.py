@@ -110,11 +110,25 @@ def chromium_path():
     return path
 
 
+#: One browser context per browser (``id(browser)`` -> context): its pages share the HTTP cache and compiled
+#: scripts, as a student's tabs do. A page in a context of its own loaded and compiled Bokeh's and Panel's
+#: scripts anew: 2.3 s to a page's first dE against 1.9 s (quiet machine, five pages each).
+_CONTEXTS = {}
+
+
+def new_page(browser):
+    """A new page (1500 x 1100) in ``browser``'s shared context (made on first use, closed with the browser)."""
+    ctx = _CONTEXTS.get(id(browser))
+    if ctx is None or ctx.browser is not browser or not browser.is_connected():
+        ctx = _CONTEXTS[id(browser)] = browser.new_context(viewport={"width": 1500, "height": 1100})
+    return ctx.new_page()
+
+
 class Page:
     """A Playwright page on the explorer, with its console messages."""
 
     def __init__(self, browser, url):
-        self.page = browser.new_page(viewport={"width": 1500, "height": 1100})
+        self.page = new_page(browser)
         self.console = []
         self.page.set_default_timeout(TIMEOUT * 1000)
         self.page.on("console", lambda m: self.console.append((m.type, f"{m.text} ({m.location.get('url', '')})")))

@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 import scipy.io
 
-from app_helpers import ARTIFACTS, POLL, TIMEOUT
+from app_helpers import ARTIFACTS, POLL, TIMEOUT, new_page
 from camsim_explorer.state import COMPARE_PARAMETERS, URL_PARAMETERS
 
 pytestmark = pytest.mark.browser
@@ -99,7 +99,7 @@ class Tab:
 
     def __init__(self, browser, url, wait=True):
         """``wait=False``: return once the server has answered (the page goes on loading meanwhile)."""
-        self.page = browser.new_page(viewport={"width": 1500, "height": 1100})
+        self.page = new_page(browser)
         self.page.set_default_timeout(TIMEOUT * 1000)
         self.console = []
         self.page.on("console", lambda m: self.console.append((m.type, m.text)))
