@@ -59,7 +59,9 @@ SLOTS = MAX_PINNED + 1
 # framewise: each new image sets the (shared) ranges to its own extent; without it the ranges stay at those of
 # the first, 2 x 2 placeholder, and every image opens zoomed into its corner
 # the toolbar on the right: above, it shares its row with the title and covers it at this width
-IMAGE_OPTS = dict(frame_width=250, data_aspect=1, xaxis=None, yaxis=None, toolbar="right",
+# no ``data_aspect``: each frame is made of its images' shape (``_frame``); with it beside both frame sides,
+# pins took 1 s longer each in the browser (7.2 -> 8.2-8.8 s, benchmarks/browser.py)
+IMAGE_OPTS = dict(frame_width=250, xaxis=None, yaxis=None, toolbar="right",
                   tools=["hover"], active_tools=["wheel_zoom"], framewise=True)
 #: The highest an image's frame gets (pixels): a tall image's frame is narrower instead.
 MAX_FRAME_HEIGHT = 375
@@ -73,10 +75,9 @@ def _frame(aspect):
     width, height = IMAGE_OPTS["frame_width"], IMAGE_OPTS["frame_width"] * aspect
     if height > MAX_FRAME_HEIGHT:
         width, height = MAX_FRAME_HEIGHT / aspect, MAX_FRAME_HEIGHT
-    # no ``data_aspect`` with both sides given: the frame is the image's shape already, and with it the plots
-    # took 1 s longer per pinned design in the browser (7.2 -> 8.2-8.8 s, benchmarks/browser.py)
-    opts = {k: v for k, v in IMAGE_OPTS.items() if k != "data_aspect"}
-    return dict(opts, frame_width=max(1, round(width)), frame_height=max(1, round(height)))
+    return dict(IMAGE_OPTS, frame_width=max(1, round(width)), frame_height=max(1, round(height)))
+
+
 _WIN_COLOURS = np.array([[31, 119, 180], [255, 127, 14], [200, 200, 200]]) / 255.0
 
 
