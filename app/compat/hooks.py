@@ -200,11 +200,11 @@ def served_without_cdn():
 
     original = getattr(resources, "use_cdn", None)
     patch = getattr(resources, "patch_stylesheet", None)
-    if original is None or patch is None or not hasattr(template, "use_cdn") \
-            or getattr(reactive, "patch_stylesheet", None) is not patch and not getattr(reactive.patch_stylesheet, "camsim", False):
-        return False
     if getattr(original, "camsim", False):
         return True
+    if original is None or patch is None or not hasattr(template, "use_cdn") \
+            or getattr(reactive, "patch_stylesheet", None) is not patch:
+        return False
 
     def use_cdn():
         return False
