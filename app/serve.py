@@ -261,6 +261,21 @@ def _collect_and_trim_once_quiet(libc, quiet_s=None):
     return schedule
 
 
+def _full_collections_when_quiet(io_loop):
+    """Python's own full garbage collections off; one when the pages are quiet instead (``app/collector.py``),
+    looked for every second on the event loop."""
+    from tornado.ioloop import PeriodicCallback
+
+    from .collector import QuietCollector
+    from .compat import spare_session
+
+    spare_session.note_messages()  # the time of the pages' last message, with or without spare pages
+    collector = QuietCollector(idle_for=spare_session.idle_for, busy=spare_session.busy)
+    collector.start()
+    io_loop.add_callback(lambda: PeriodicCallback(collector.check, 1000).start())  # on the server's loop
+    return collector
+
+
 def _log_to_stderr():
     """The server's own notes (``camsim.*`` loggers at INFO: spare pages built, memory returned after closed
     sessions, stranded changes re-sent) on stderr, one line each; without a handler Python drops them."""
@@ -385,6 +400,7 @@ def run(args):
 
     watch_event_loop(server.io_loop.asyncio_loop)  # a line in the log for every stall of the event loop over 100 ms
     watch_garbage_collection()  # and for every garbage collection that held every thread over 100 ms
+    _full_collections_when_quiet(server.io_loop)
     sys.setswitchinterval(GIL_SWITCH_S)
     try:
         server.io_loop.start()

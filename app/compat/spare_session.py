@@ -35,7 +35,7 @@ import weakref
 
 from . import build_off_loop as _build_off_loop
 
-__all__ = ["install", "prepare_at_start", "SPARE_DELAY_S"]
+__all__ = ["install", "prepare_at_start", "note_messages", "idle_for", "busy", "SPARE_DELAY_S"]
 
 #: Seconds after the last page served has connected (its scripts loaded, its document pulled) before a spare
 #: is built: the page's first layout sends the server its sizes meanwhile.
@@ -58,7 +58,7 @@ _in_flight = weakref.WeakKeyDictionary()  # session served -> [served at, connec
 _last_message = [0.0]  # when a page last sent the server a message (monotonic s)
 
 
-def _busy():
+def busy():
     """A session computing a result: a build now would hold its result back on the event loop."""
     from .. import main
 
@@ -286,7 +286,7 @@ def _schedule(path):
     loop = IOLoop.current()
 
     def check():
-        if _loading() or _busy() or time.monotonic() - _last_message[0] < QUIET_S:
+        if _loading() or busy() or idle_for() < QUIET_S:
             loop.call_later(POLL_S, check)
             return
         loop.add_callback(run)
@@ -362,12 +362,19 @@ def install():
     get_session.original = original
     DocHandler.get_session = get_session
     _installed.append(original)
-    _note_messages()
+    note_messages()
     return True
 
 
-def _note_messages():
-    """Keep the time of the last message any page sent (Bokeh's websocket handler), for ``QUIET_S``."""
+def idle_for():
+    """Seconds since a page last sent the server a message (a change, a zoom, a tab opened); counted from the
+    server's start until :func:`note_messages` sees the first."""
+    return time.monotonic() - _last_message[0]
+
+
+def note_messages():
+    """Keep the time of the last message any page sent (Bokeh's websocket handler), for ``QUIET_S`` and
+    :func:`idle_for`; once per process."""
     from bokeh.server.views.ws import WSHandler
 
     bokehs = getattr(WSHandler, "on_message", None)

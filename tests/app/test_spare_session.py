@@ -44,7 +44,7 @@ def test_the_next_page_is_built_once_pages_have_connected_and_are_quiet(monkeypa
     monkeypatch.setattr(spare, "SPARE_DELAY_S", 0.05)
     monkeypatch.setattr(spare, "QUIET_S", 0.3)
     monkeypatch.setattr(spare, "POLL_S", 0.02)
-    monkeypatch.setattr(spare, "_busy", lambda: False)
+    monkeypatch.setattr(spare, "busy", lambda: False)
     monkeypatch.setitem(spare._sources, "/quiet", object())
     monkeypatch.setattr(spare, "_last_message", [0.0])
     built = []
