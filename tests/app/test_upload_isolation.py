@@ -87,3 +87,22 @@ def test_bad_names_and_oversized_uploads_need_no_worker():
         load_upload_isolated("a\x00b.npz", b"x")
     with pytest.raises(FileFormatError, match="more than the"):
         load_upload_isolated("big.npz", b"x" * 2000, UploadLimits(max_upload_bytes=1000))
+
+
+def test_after_the_warm_up_the_first_upload_imports_nothing_and_starts_no_fork_server():
+    """``warm_up`` (called by ``camsim serve`` at start) leaves a first upload nothing to import and no fork
+    server to start: 0.25 s of the thread reading it, against 0.035 s for the next, before."""
+    import subprocess
+    import sys
+
+    script = ("import io, sys, numpy as np, scipy.io\n"
+              "from multiprocessing import forkserver\n"
+              "from camsim_core.io import isolated\n"
+              "isolated.warm_up()\n"
+              "modules, server = set(sys.modules), forkserver._forkserver._forkserver_pid\n"
+              "buf = io.BytesIO(); scipy.io.savemat(buf, {'rad': np.ones((2, 3, 31)), 'bands': np.arange(400.0, 701.0, 10.0)})\n"
+              "isolated.load_upload_isolated('x.mat', buf.getvalue())\n"
+              "print(sorted(set(sys.modules) - modules), forkserver._forkserver._forkserver_pid == server)\n")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split("\n")[-2] == "[] True", out.stdout
