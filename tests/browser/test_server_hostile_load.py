@@ -37,7 +37,7 @@ import psutil
 import pytest
 import scipy.io
 
-from app_helpers import ARTIFACTS, CHROMIUM_ARGS, Page, chromium_path, explorer_server
+from app_helpers import ARTIFACTS, CHROMIUM_ARGS, Page, chromium_path, explorer_server, server_log, wait_for_log
 from ws_session import WsSession
 
 pytestmark = [
@@ -48,11 +48,11 @@ pytestmark = [
 ]
 
 IDLE_S = 2.0
-#: Seconds after the sessions are opened before the rounds start (as the spare page's ``QUIET_S``).
-QUIET_S = 3.0
 #: Niceness of the test's Chromium: a class's browsers run on the students' machines, not on the server's
 #: cores; eleven pages rendering on the server's two cores at its priority would measure the test's own browser.
 BROWSER_NICE = 10
+#: What the server logs when the next visitor's page is built and serialized (``camsim_explorer.compat.spare_session``).
+SPARE_BUILT = "a page (spare) serialized off the event loop"
 
 
 @pytest.fixture(scope="module")
@@ -151,8 +151,11 @@ def test_ten_sessions_stay_responsive_while_an_eleventh_uploads_hostile_files(br
         baseline = _rss_mb(ps)
         hostile = Page(browser, url)
         upload = hostile.page.locator(".w-upload input[type=file]").first
+        built = server_log(url).count(SPARE_BUILT)
         sessions = [loop.run(WsSession.open(url)) for _ in range(10)]
-        time.sleep(QUIET_S)  # the pages' builds are over (each holds the loop: see the closing note of issue 36)
+        # the rounds start once the pages' builds are over: the spare page the server builds and serializes
+        # once they are quiet, a second's work that would otherwise share the cores with the first round
+        wait_for_log(url, SPARE_BUILT, count=built + 1)
         log_at_start = log_path.stat().st_size if log_path.exists() else 0
         responses, per_round = [], []
         for round_ in range(12):
