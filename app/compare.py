@@ -246,11 +246,10 @@ class CompareView:
         self.table = pn.pane.HTML("", css_classes=["camsim-compare-table"], sizing_mode="stretch_width")
         self.status = PlainText("", css_classes=["camsim-compare-status"], sizing_mode="stretch_width",
                                 styles={"font-size": "10px", "white-space": "pre-wrap", "word-break": "break-all"},
-                                stylesheets=["pre { white-space: pre-wrap; word-break: break-all; }"],
-                                visible=False)
+                                stylesheets=["pre { white-space: pre-wrap; word-break: break-all; }"])
         self.show_status = w.Checkbox(name="Show the comparison's status (JSON, for scripts)", value=False,
                                       css_classes=["w-compare-status"])
-        self.show_status.param.watch(lambda e: setattr(self.status, "visible", e.new), "value")
+        self.status.visible = self.show_status  # a reference: shown while the box is ticked
         self.a_select = w.Select(name="A", options=[], css_classes=["w-ab-a"], width=180)
         self.b_select = w.Select(name="B", options=[], css_classes=["w-ab-b"], width=180)
         self.a_select.param.watch(lambda e: self.update_ab(), "value")

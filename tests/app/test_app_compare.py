@@ -242,3 +242,13 @@ def test_each_image_frame_takes_the_shape_of_its_image():
         assert fig.frame_height == MAX_FRAME_HEIGHT
         assert fig.frame_width == pytest.approx(MAX_FRAME_HEIGHT * w / h, abs=1)
     assert view.render_panes[-1].object is unused
+
+
+def test_the_comparisons_status_shows_only_while_its_box_is_ticked():
+    """The raw JSON status (for scripts) is hidden until asked for (issue 38: it was always in view)."""
+    view = CompareView(ExplorerState(start=False))
+    assert view.status.visible is False
+    view.show_status.value = True
+    assert view.status.visible is True
+    view.show_status.value = False
+    assert view.status.visible is False

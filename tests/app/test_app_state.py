@@ -673,3 +673,22 @@ def test_a_camera_comes_with_its_own_lens_unless_another_is_chosen():
     assert state.result.camera.optics == "none" and json.loads(state.to_json())["optics"] == "none"
     state.param.update(camera="kodak-dcs200-ir", optics="diffraction")
     assert state.result.camera.optics == "diffraction"
+
+
+def test_diagnostics_show_only_while_their_box_is_ticked():
+    import panel as pn
+
+    from camsim_explorer.main import _release, create_app
+
+    template = create_app()
+    try:
+        found = [o for root in [*template.main, *template.sidebar] for o in root.select()]
+        box = next(o for o in found if isinstance(o, pn.widgets.Checkbox) and "w-diagnostics" in o.css_classes)
+        shown = next(o.object for o in found if "camsim-status" in (getattr(getattr(o, "object", None), "css_classes", None) or []))
+        assert box.value is False and shown.visible is False  # the status's own model
+        box.value = True
+        assert shown.visible is True
+        box.value = False
+        assert shown.visible is False
+    finally:
+        _release(template.state, template.main[0], template)
