@@ -7,6 +7,7 @@ computing. What ran on "the loop" is then what ran on the test's thread.
 """
 
 import queue
+import time
 
 from camsim_explorer.state import Runner
 
@@ -19,12 +20,24 @@ def served(state):
 
 
 def settle(state, outcomes, timeout=120):
-    """Apply outcomes on this thread until nothing is computing."""
+    """Apply outcomes on this thread until nothing is computing and the runner is idle.
+
+    The runner hands over an outcome before it looks for a newer job and calls itself idle: right after
+    the last outcome is applied it may still say busy, with nothing more to come (a wait for another
+    outcome then hung for ``timeout`` s on a loaded machine). So the queue is looked at in short waits,
+    until the state computes nothing and the runner is idle, with no outcome left."""
+    deadline = time.monotonic() + timeout
     while True:
-        job, outcome = outcomes.get(timeout=timeout)
+        try:
+            job, outcome = outcomes.get(timeout=0.02)
+        except queue.Empty:
+            if not state.computing and not state.runner.busy and outcomes.empty():
+                return
+            if time.monotonic() > deadline:
+                raise AssertionError(f"the session still computes after {timeout} s (computing {state.computing}, "
+                                     f"runner busy {state.runner.busy})") from None
+            continue
         state._apply(job, outcome)
-        if not state.computing and not state.runner.busy and outcomes.empty():
-            return
 
 
 def threads_calling(monkeypatch, module, name):
