@@ -12,7 +12,7 @@ result received); the server's event-loop watch logs no stall over 100 ms
 while the rounds run; the server's memory comes back within 100 MB of its
 level after a warm-up session.
 
-The ten sessions are :class:`ws_session.WsSession`\ s, the page's websocket
+The ten sessions are :class:`ws_session.WsSession` objects, the page's websocket
 without the page: ten Chromium pages on the server's two cores took most of
 both cores to render, and their times were the test's own browsers' (see
 that module). The uploader's Chromium runs at :data:`BROWSER_NICE` for the
