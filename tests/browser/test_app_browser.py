@@ -305,7 +305,9 @@ def test_chart_options_make_the_chart_a_link_reproduces_and_bad_ones_are_refused
     options.fill("size=100000")
     options.press("Enter")
     page.wait_for_alert("more than the")
-    assert options.input_value() == "angle=10,contrast=2,size=96"  # the box shows the chart in use again
+    # the box shows the chart in use again: set on the tick after the refusal, so it may arrive after the alert
+    wait_until(lambda: options.input_value() == "angle=10,contrast=2,size=96", 60,
+               "the options box showing the chart in use again after a refusal")
     assert page.params()["scene"] == chosen["params"]["scene"]
 
 

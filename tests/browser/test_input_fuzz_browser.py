@@ -236,7 +236,8 @@ def test_a_link_value_is_applied_or_named_never_dropped(browser, server, kind):
             wait_until(lambda: _number_shown(page, css) is not None
                        and math.isclose(_number_shown(page, css), s["params"][name], rel_tol=1e-3, abs_tol=1e-4),
                        timeout=TIMEOUT, what=f"{css} shows {s['params'][name]}")
-        assert page.page.locator(".w-camera select").first.input_value() == s["params"]["camera"]
+        wait_until(lambda: page.page.locator(".w-camera select").first.input_value() == s["params"]["camera"],
+                   timeout=TIMEOUT, what=f"the camera list showing {s['params']['camera']}")
         _check_clean(page, server)
     finally:
         page.close()
