@@ -72,10 +72,14 @@ def test_measures_match_a_direct_run_of_the_engine(dcs):
     assert np.array_equal(dcs.ideal, ideal.data)
     # the pipeline takes the unquantized ideal image to XYZ in float64 (rendering.ideal.ideal_xyz), to_xyz in
     # float32: the same to float32 rounding
-    assert dcs.measures["cielab"]["mean"] == pytest.approx(float(np.mean(de, dtype=np.float64)), rel=1e-6)
-    de = np.asarray(de, float)  # the median and percentile of the float32 map, in float64 as the review takes them
-    assert dcs.measures["cielab"]["median"] == pytest.approx(float(np.median(de)), rel=1e-6)
-    assert dcs.measures["cielab"]["p95"] == pytest.approx(float(np.percentile(de, 95)), rel=1e-6)
+    # float32 rounding of L*a*b* values up to 100 is ~1e-5 a value, a few of them in one dE: the two maps agree
+    # pixel by pixel within 1e-4 dE (9e-5 measured with numpy 2.4), so do their order statistics (a quantile moves
+    # no more than the most any value moves); the mean averages the rounding out
+    de = np.asarray(de, float)
+    assert np.nanmax(np.abs(de - dcs.delta_e)) < 1e-4
+    assert dcs.measures["cielab"]["mean"] == pytest.approx(float(np.mean(de)), rel=1e-6)
+    assert dcs.measures["cielab"]["median"] == pytest.approx(float(np.median(de)), abs=1e-4)
+    assert dcs.measures["cielab"]["p95"] == pytest.approx(float(np.percentile(de, 95)), abs=1e-4)
 
 
 def test_ab_difference_against_the_ideal_design_is_the_error_map(dcs, cones):
