@@ -521,10 +521,26 @@ def _lazy_tabs(state, views):
     built = set()
     # the Results tab's views always follow (the status pane and the headline numbers live there)
     gates = [now] + [WhenShown(shown=False) for _ in TABS[1:]]
+    doc = pn.state.curdoc
+    themes = {}  # tab index -> the document's theme when the tab was last shown
+
+    def restyle(index, back=False):
+        """The tab's plots in the document's theme, if it changed since the tab was last shown (``back``: the
+        tab is shown again now, its plots were out of the document when the theme changed)."""
+        if doc is None:
+            return
+        if themes.get(index, doc.theme) is not doc.theme:
+            if back:
+                state.defer(lambda: resend_plot_text(doc))  # once the tab's plots are back in the document
+            for pane in holders[index].select(pn.pane.HoloViews):
+                # HoloViews copies the theme's text sizes into a plot when it makes it: made again
+                pane.param.trigger("object")
+        themes[index] = doc.theme
 
     def show(index):
         if not 0 <= index < len(TABS):
             return
+        restyle(index, back=True)
         for i, gate in enumerate(gates):
             if gate is not now and i != index:
                 gate.show(False)
@@ -537,6 +553,7 @@ def _lazy_tabs(state, views):
     tabs.param.watch(lambda event: show(event.new), "active")
     show(tabs.active)
     views["tabs"] = tabs
+    views["restyle_tab"] = lambda: restyle(tabs.active)  # after a change of theme (presentation mode)
     return tabs
 
 
@@ -637,6 +654,7 @@ def create_app(scene=None):
     def on_present(event):
         views["grid"].ncols = 2 if event.new else 3
         show_presentation(doc, event.new)
+        views["restyle_tab"]()
 
     present.param.watch(on_present, "value")
     # Not a collapsed Card: a Card hides its children by setting their `visible` in the browser, which the
@@ -703,18 +721,24 @@ class _Design(pn.theme.Bootstrap):
                                   "stylesheets": [pn.theme.base.Inherit, _CONTROL_CSS]}}
 
 
+#: The plot text presentation mode sets: (Bokeh model class, property) -> key of :data:`PRESENT_PLOT_TEXT`.
+_PLOT_TEXT_PROPERTIES = {("Axis", "axis_label_text_font_size"): "axis_label",
+                         ("Axis", "major_label_text_font_size"): "tick_label",
+                         ("Title", "text_font_size"): "title",
+                         ("Legend", "label_text_font_size"): "legend", ("Legend", "title_text_font_size"): "legend",
+                         ("ColorBar", "major_label_text_font_size"): "tick_label",
+                         ("ColorBar", "title_text_font_size"): "legend"}
+
+
 def present_theme():
     """The Bokeh theme of presentation mode: plots' axis, tick, title and legend text at
     :data:`PRESENT_PLOT_TEXT` sizes (their canvas text does not follow the page's CSS)."""
     from bokeh.themes import Theme
 
-    t = PRESENT_PLOT_TEXT
-    return Theme(json={"attrs": {
-        "Axis": {"axis_label_text_font_size": t["axis_label"], "major_label_text_font_size": t["tick_label"]},
-        "Title": {"text_font_size": t["title"]},
-        "Legend": {"label_text_font_size": t["legend"], "title_text_font_size": t["legend"]},
-        "ColorBar": {"major_label_text_font_size": t["tick_label"], "title_text_font_size": t["legend"]},
-    }})
+    attrs = {}
+    for (cls, name), key in _PLOT_TEXT_PROPERTIES.items():
+        attrs.setdefault(cls, {})[name] = PRESENT_PLOT_TEXT[key]
+    return Theme(json={"attrs": attrs})
 
 
 _THEME_BEFORE = weakref.WeakKeyDictionary()  # document -> its theme before presentation mode
@@ -730,6 +754,26 @@ def show_presentation(doc, on):
         doc.theme = present_theme()
     elif doc in _THEME_BEFORE:
         doc.theme = _THEME_BEFORE.pop(doc)
+
+
+def resend_plot_text(doc):
+    """Send the browser the text sizes of every plot in ``doc`` again; returns how many values were sent.
+
+    A tab's plots are out of the document while another tab is shown (Panel's dynamic tabs). When they come
+    back, Bokeh gives them the document's theme on the server but tells the browser only of values that are
+    not defaults: after presentation mode was turned off, the browser drew its own copy of them in the large
+    text (for about 30 s, until it forgot that copy). Sent again, the sizes in force are drawn.
+    """
+    import bokeh.models as bm
+
+    classes = {"Axis": bm.Axis, "Title": bm.Title, "Legend": bm.Legend, "ColorBar": bm.ColorBar}
+    sent = 0
+    for cls, name in _PLOT_TEXT_PROPERTIES:
+        for model in doc.select({"type": classes[cls]}):
+            value = getattr(model, name)
+            model.trigger(name, value, value)  # Bokeh's change notice: sent although the server's value is the same
+            sent += 1
+    return sent
 
 
 class _Template(_compat.DataURIFavicon, pn.template.BootstrapTemplate):
