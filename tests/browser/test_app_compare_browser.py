@@ -4,7 +4,6 @@ sweep noise sigma. Numbers are checked against the engine's results for each con
 import json
 import time
 
-import numpy as np
 import pytest
 
 from app_helpers import ARTIFACTS, POLL, TIMEOUT, Page, eventually, next_frames
@@ -151,7 +150,7 @@ def test_sweep_of_noise_gives_one_curve_per_design_with_the_engines_points(compa
     box.fill(", ".join(f"{v:g}" for v in SIGMAS))
     box.press("Enter")
     page.page.locator(".w-sweep-run button").first.click()
-    s = wait_compare(page, lambda s: s["sweep"] and len(s["sweep"]["points"]) == 2 * len(SIGMAS), timeout=240)
+    wait_compare(page, lambda s: s["sweep"] and len(s["sweep"]["points"]) == 2 * len(SIGMAS), timeout=240)
     expected = []
     for name, cam in CAMERAS.items():
         ys = [evaluate_design({"camera": cam, "noise_sigma": v}, name, metrics=("cielab",)).measures["cielab"]["mean"]

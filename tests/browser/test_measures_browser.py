@@ -5,7 +5,7 @@ the dE. Playwright drives the system Chromium against ``camsim serve`` on 127.0.
 
 import pytest
 
-from app_helpers import server_log
+from app_helpers import server_log, wait_until
 
 pytestmark = pytest.mark.browser
 
@@ -54,8 +54,8 @@ def test_a_black_frame_headline_carries_its_warning_as_large_as_the_de(page):
     flag = page.page.locator(".camsim-stats strong.camsim-flag").first
     flag.wait_for(state="attached")
     number = page.page.locator(".camsim-stats p strong").nth(1)  # the metric's name, then the mean dE
-    assert number.inner_text() == f"{black['mean_de']:.2f}"
-    assert "black frame" in flag.inner_text()
+    wait_until(lambda: number.inner_text() == f"{black['mean_de']:.2f}" and "black frame" in flag.inner_text(),
+               what=f"the stats showing {black['mean_de']:.2f} and the black frame flag")
     size = "e => parseFloat(getComputedStyle(e).fontSize)"
     weight = "e => getComputedStyle(e).fontWeight"
     assert flag.evaluate(size) >= number.evaluate(size) and flag.evaluate(weight) == number.evaluate(weight)

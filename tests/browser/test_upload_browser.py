@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from app_helpers import ARTIFACTS, Page, explorer_server, wait_until
-from camsim_core.scene import Scene, save_npz_scene
+from camsim_core.scene import Scene
 
 pytestmark = pytest.mark.browser
 

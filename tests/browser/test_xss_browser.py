@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 import scipy.io
 
-from app_helpers import ARTIFACTS, POLL, TIMEOUT, new_page
+from app_helpers import ARTIFACTS, POLL, TIMEOUT, new_page, wait_until
 from camsim_explorer.state import COMPARE_PARAMETERS, URL_PARAMETERS
 
 pytestmark = pytest.mark.browser
@@ -252,7 +252,8 @@ def test_hostile_upload_names_are_shown_as_text(browser, server):
         upload.set_input_files(files=[_mat(DETAILS + ".mat", SCRIPT)])
         tab.wait_status(lambda s: s["params"]["scene"] == "upload:" + SCRIPT)
         assert SCRIPT in tab.wait_text(".camsim-scene-meta table", SCRIPT)
-        assert "upload:" + SCRIPT in tab.page.locator(".w-scene select option").all_inner_texts()
+        wait_until(lambda: "upload:" + SCRIPT in tab.page.locator(".w-scene select option").all_inner_texts(),
+                   what="the uploaded scene's name in the scene list")
         tab.shot("scene-meta", ".camsim-scene-meta")
         tab.assert_safe()
         # a file that is not a scene: the refusal quotes its name
