@@ -303,7 +303,7 @@ def test_mutated_isetcam_layouts_load_or_are_refused_by_name(tmp_path, photons):
             warnings.simplefilter("ignore")
             savemat(buf, v)
         outcome, signature = run_case("mat5", buf.read_bytes(), tmp_path)
-        assert outcome in ("loaded", "error"), (case, path, signature)
+        assert outcome in ("loaded", "error"), (case, signature)
         outcomes.append(outcome)
     assert "loaded" in outcomes and "error" in outcomes
 
