@@ -475,10 +475,7 @@ def _physical_tab(state, when_shown):
 
 def _results_tab(state, views):
     results = views["results"]
-    p = results.panes
-    grid = pn.GridBox(p["raw"], p["demosaiced"], p["rendered"], p["ideal"], p["de"], p["hist"], ncols=3,
-                      sizing_mode="stretch_width", css_classes=["camsim-grid"])
-    views["grid"] = grid
+    grid = views["grid"] = results.grid
     fit = pn.widgets.Button(name="Show whole images", css_classes=["w-fit"], width=170)
     fit.on_click(lambda e: results.fit())
     return pn.Column(results.stats, results.warnings, grid,

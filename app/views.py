@@ -50,8 +50,9 @@ _SCENE_RGB = {}
 
 #: A computation still running after this long marks the result panes as busy (ms).
 BUSY_DELAY_MS = 250
-#: A pane marked busy (``loading``) shows a still "Computing..." label over its dimmed content instead of
-#: Panel's animated spinner: an animated spinner repaints at the screen's frame rate, and six of them
+#: The views' grid marked busy (``loading``) shows a still "Computing..." label over its dimmed content instead
+#: of Panel's animated spinner: an animated spinner repaints at the screen's frame rate, and six of them (one a
+#: view, before the grid was marked as one)
 #: kept half a core of the browser busy for as long as a result was computing (measured: 2.4 CPU-s per
 #: 5 s, against 0.04 idle), which on a machine serving the page made the result itself come later.
 STILL_BUSY_CSS = """
@@ -624,8 +625,7 @@ class ResultsView:
                 # (room for its end labels) narrowed the map's frame by 30 px, ~9 % of a view at 1366 px
                 parts.append(pn.Column(pn.pane.Bokeh(self.colour_bar.figure, sizing_mode="stretch_width"),
                                        sizing_mode="stretch_width", margin=0))
-            self.panes[key] = pn.Column(*parts, css_classes=[f"camsim-{key}", "camsim-view"], sizing_mode="stretch_width",
-                                        stylesheets=[STILL_BUSY_CSS])
+            self.panes[key] = pn.Column(*parts, css_classes=[f"camsim-{key}", "camsim-view"], sizing_mode="stretch_width")
         # the histogram keeps its own axes, refitted to each result
         self.hist_source = ColumnDataSource(dict(left=[0.0], right=[1.0], top=[0]))
         hist = figure(height=240, sizing_mode="stretch_width", tools="", toolbar_location=None,
@@ -639,7 +639,11 @@ class ResultsView:
         self.hist_figure = hist
         self.labels["hist"] = _label("dE histogram", "camsim-hist-label")
         self.panes["hist"] = pn.Column(self.labels["hist"], pn.pane.Bokeh(hist, sizing_mode="stretch_width"),
-                                       css_classes=["camsim-hist"], sizing_mode="stretch_width", stylesheets=[STILL_BUSY_CSS])
+                                       css_classes=["camsim-hist"], sizing_mode="stretch_width")
+        p = self.panes
+        # the views in a grid, marked busy as one (see _show_computing)
+        self.grid = pn.GridBox(p["raw"], p["demosaiced"], p["rendered"], p["ideal"], p["de"], p["hist"], ncols=3,
+                               sizing_mode="stretch_width", css_classes=["camsim-grid"], stylesheets=[STILL_BUSY_CSS])
         # HTML, not Markdown: these change with every result, and need no parsing
         self.stats = Text("", ["camsim-stats"], margin=(0, 10))
         self.warnings = Text("", ["camsim-warnings"], margin=(0, 10))
@@ -949,9 +953,11 @@ class ResultsView:
         res = self.state.result
         busy = bool(self.state.computing)
         self._busy_shown = busy
-        for key in ("raw", "demosaiced", "rendered", "ideal", "de", "hist"):
-            if self.panes[key].loading != busy:  # each change of the mark lays the page out again
-                self.panes[key].loading = busy
+        # One mark over the views' grid: each change of a mark makes the browser lay the whole page out again
+        # (50-60 ms on a 2-core machine), and a mark per view made six of them to show a computation and six
+        # more to end it (0.6-0.7 s of a chart pick's 1.1 s).
+        if self.grid.loading != busy:
+            self.grid.loading = busy
         if res is None or res.raw is None:
             return
         label, mean, med = getattr(self, "res_summary", (self.state.metric, None, None))
