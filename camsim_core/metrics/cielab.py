@@ -17,7 +17,6 @@ observations", Color Res. Appl. 30(1), 21-30.
 
 from __future__ import annotations
 
-import colour
 import numpy as np
 
 from .._chunks import map_pixels
@@ -256,6 +255,8 @@ def delta_e_lab(lab1, lab2, method="CIE 1976"):
         # (the work counted in values read: six per distance written)
         run_blocks(lambda i, j: kernel(rows[0][i:j], rows[1][i:j], out[i:j]), split(n, CORES), values=6 * n)
         return out.reshape(shape[:-1])
+    import colour  # here, not at import: colour-science takes 1.1-1.6 s to import (it loads matplotlib)
+
     return colour.delta_E(np.asarray(lab1, float), np.asarray(lab2, float), method=method)
 
 

@@ -103,3 +103,14 @@ def test_nothing_imports_the_explorer_by_its_folder_name_or_edits_sys_path():
             if folder == "camsim_core" and re.search(r"sys\.path\.(insert|append)|sys\.path\s*\[", text):
                 offenders.append(f"{path.relative_to(ROOT)} changes sys.path")
     assert offenders == []
+
+
+def test_the_package_and_its_command_line_help_load_no_plotting_library():
+    """``import camsim_core`` and ``camsim --help`` leave colour-science (which loads matplotlib: 1.1-1.6 s)
+    and matplotlib out until something needs them: ``camsim --help`` took 2.7 s, now 1.1 s."""
+    code = ("import contextlib, io, sys\nimport camsim_core\nfrom camsim_core.cli import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()), contextlib.suppress(SystemExit):\n    main(['--help'])\n"
+            "print(sorted({m.partition('.')[0] for m in sys.modules} & {'colour', 'matplotlib'}))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=180)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert out.stdout.strip() == "[]", out.stdout
