@@ -765,11 +765,12 @@ def resend_plot_text(doc):
 
     classes = {"Axis": bm.Axis, "Title": bm.Title, "Legend": bm.Legend, "ColorBar": bm.ColorBar}
     sent = 0
-    for cls, name in _PLOT_TEXT_PROPERTIES:
-        for model in doc.select({"type": classes[cls]}):
-            value = getattr(model, name)
-            model.trigger(name, value, value)  # Bokeh's change notice: sent although the server's value is the same
-            sent += 1
+    with pn.io.hold(doc):  # one message, not one per value
+        for cls, name in _PLOT_TEXT_PROPERTIES:
+            for model in doc.select({"type": classes[cls]}):
+                value = getattr(model, name)
+                model.trigger(name, value, value)  # Bokeh's change notice: sent although the server's value is the same
+                sent += 1
     return sent
 
 

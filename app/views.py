@@ -48,7 +48,7 @@ DE_RANGE = (0.0, 20.0)
 _SCENE_RGB = {}
 
 
-#: A computation still running after this long marks the result panes as busy (ms).
+#: A computation still running after this long marks the views' grid as busy (ms).
 BUSY_DELAY_MS = 250
 #: The views' grid marked busy (``loading``) shows a still "Computing..." label over its dimmed content instead
 #: of Panel's animated spinner: an animated spinner repaints at the screen's frame rate, and six of them (one a

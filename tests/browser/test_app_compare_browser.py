@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from app_helpers import ARTIFACTS, POLL, TIMEOUT, Page, eventually, next_frames
+from app_helpers import ARTIFACTS, POLL, TIMEOUT, Page, eventually, next_frames, wait_until
 from camsim_core.review import evaluate_design
 
 pytestmark = pytest.mark.browser
@@ -121,6 +121,11 @@ def test_two_pinned_designs_side_by_side(compared, engine):
     assert "kodak-dcs200-ir" in table and "human-cones" in table
     assert all(f"{m:.2f}" in table for m in means)
     assert page.errors() == []
+    # the designs' progress bar, idle: in the page (its place kept, so filling it lays nothing out again) but not
+    # drawn (an empty box beside the download button meant nothing to a reader)
+    wait_until(lambda: page.page.locator(".camsim-compare-progress progress").first.evaluate(
+        "e => getComputedStyle(e).visibility === 'hidden' && e.getClientRects().length > 0"),
+        what="the idle progress bar kept in place and not drawn")
     next_frames(page)  # the figures checked above are drawn
     page.shot("compare-two-designs")
     page.page.locator(".camsim-tabs").first.screenshot(path=str(ARTIFACTS / "compare-tab.png"))  # docs/compare.png
