@@ -15,8 +15,11 @@ results and shows them.
   results, no pipelines: memory is bounded); a change of scene recomputes
   them in a background thread with a visible progress state. The live design
   is the explorer's own result: comparing costs it nothing.
-* Image views share one coordinate system (camera pixels ``x``, ``y``), so
-  their zoom and pan are linked; all dE maps use one colour scale.
+* The plots are Bokeh figures made once (:class:`ImageView`, :class:`SweepPlot`,
+  :class:`HistogramPlot`); new results replace their data in place. Image
+  views share one coordinate system (scene widths: designs of other pixel
+  counts line up), so their zoom and pan are linked; all dE maps use one
+  colour mapper, so one scale.
 * The sweep runs in background threads; points arrive on the page as they
   are computed; a click on a point loads that configuration into the live design.
 """
@@ -30,11 +33,12 @@ import threading
 from collections import OrderedDict
 from functools import partial
 
-import holoviews as hv
-import holoviews.plotting.bokeh  # noqa: F401  (the bokeh backend, for .opts)
 import numpy as np
 import panel as pn
-from holoviews import streams
+from bokeh.events import Tap
+from bokeh.models import ColorBar, ColumnDataSource, HoverTool, Legend, LegendItem, LinearColorMapper, Range1d
+from bokeh.palettes import Inferno256
+from bokeh.plotting import figure
 
 from camsim_core.cache import Pipeline
 from camsim_core.errors import CamsimError
@@ -48,34 +52,26 @@ from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
 from .safe_text import PlainText, html_text, md_text
 from .shown import now
 from .state import short_repr
-from .views import ASPECT_TOLERANCE, once
-
-hv.Store.set_current_backend("bokeh")
+from .views import ASPECT_TOLERANCE, _rgb_hover, held, monitor_rgba, once, rgba32, screen_part
 
 __all__ = ["CompareView", "DesignStore", "compare_tab"]
 
 LIVE = "live"
 SLOTS = MAX_PINNED + 1
-# framewise: each new image sets the (shared) ranges to its own extent; without it the ranges stay at those of
-# the first, 2 x 2 placeholder, and every image opens zoomed into its corner
-# the toolbar on the right: above, it shares its row with the title and covers it at this width
-# no ``data_aspect``: each frame is made of its images' shape (``_frame``); with it beside both frame sides,
-# pins took 1 s longer each in the browser (7.2 -> 8.2-8.8 s, benchmarks/browser.py)
-IMAGE_OPTS = dict(frame_width=250, xaxis=None, yaxis=None, toolbar="right",
-                  tools=["hover"], active_tools=["wheel_zoom"], framewise=True)
-#: The highest an image's frame gets (pixels): a tall image's frame is narrower instead.
+#: An image's frame is this wide (pixels), or narrower for a tall image ...
+FRAME_WIDTH = 250
+#: ... whose frame is this high at most.
 MAX_FRAME_HEIGHT = 375
 
 
 def _frame(aspect):
-    """``IMAGE_OPTS`` with a frame of the images' shape (``aspect`` = height / width): 250 px wide, or
-    ``MAX_FRAME_HEIGHT`` high. HoloViews sizes a plot's frame once, when it is made; a frame made for the
-    2 x 2 placeholder was square, and a wide scene's images sat in it between white bands. (Changing the
-    Bokeh figure's frame size afterwards clips its canvas without mapping the image anew.)"""
-    width, height = IMAGE_OPTS["frame_width"], IMAGE_OPTS["frame_width"] * aspect
+    """The frame (width, height) in pixels of images of ``aspect`` (height / width): ``FRAME_WIDTH`` wide, or
+    ``MAX_FRAME_HEIGHT`` high. A frame of the images' shape is filled by them (a square frame left a wide
+    scene's images between white bands)."""
+    width, height = FRAME_WIDTH, FRAME_WIDTH * aspect
     if height > MAX_FRAME_HEIGHT:
         width, height = MAX_FRAME_HEIGHT / aspect, MAX_FRAME_HEIGHT
-    return dict(IMAGE_OPTS, frame_width=max(1, round(width)), frame_height=max(1, round(height)))
+    return max(1, round(width)), max(1, round(height))
 
 
 _WIN_COLOURS = np.array([[31, 119, 180], [255, 127, 14], [200, 200, 200]]) / 255.0
@@ -83,14 +79,6 @@ _WIN_COLOURS = np.array([[31, 119, 180], [255, 127, 14], [200, 200, 200]]) / 255
 
 #: A row that goes on below when it does not fit the window's width (the rest of a row of fixed-size views).
 _WRAP = {"flex-wrap": "wrap"}
-
-
-def _bounds(shape):
-    """An image's extent in scene widths, (0, 0, 1, h / w): every design images the whole scene, at its own
-    pixel count, so the shared zoom shows the same part of the scene in each (in pixels, a design of smaller
-    pixels showed only the corner the live design's zoom covered)."""
-    h, w = shape[:2]
-    return (0, 0, 1.0, h / w)
 
 
 def _aspect(image):
@@ -136,6 +124,136 @@ class DesignStore:
     @property
     def nbytes(self):
         return sum(r.nbytes for r in self._items.values())
+
+
+def _max_side():
+    """The most pixels an image view sends along a side (the server's ``--max-view-side``)."""
+    from . import state as state_module
+
+    return state_module.LIMITS.max_view_side
+
+
+#: The title of an image view before it shows an image: not empty, so that the browser keeps the title's room (a
+#: title set later on a figure made with an empty one was never drawn).
+_NO_TITLE = " "
+
+
+class ImageView:
+    """One image of the tab: a Bokeh figure made once, whose image is replaced in place.
+
+    The image lies in scene widths, from (0, 0) to (1, h / w), on ranges
+    shared with the tab's other image views: they zoom and pan together and
+    show the same part of the scene, whatever each design's pixel count. A
+    colour image is sent as packed RGBA (:func:`~camsim_explorer.views.rgba32`);
+    a dE map as its values, coloured in the browser by ``mapper`` (one mapper
+    for the maps that share a scale, with its colour bar). An image larger
+    than ``--max-view-side`` is sent as block means.
+
+    Plain Bokeh, not HoloViews: a HoloViews plot is made anew for each new
+    image and each new frame shape, and with four designs pinned that held
+    the session's event loop for seconds (1.56 s making plots, 1.37 s sending
+    images, when a link restored them).
+    """
+
+    def __init__(self, x_range, y_range, aspect, css, mapper=None):
+        width, height = _frame(aspect)
+        self.aspect = aspect
+        self.figure = figure(x_range=x_range, y_range=y_range, frame_width=width, frame_height=height,
+                             tools="pan,wheel_zoom,box_zoom,reset,save", active_scroll="wheel_zoom",
+                             toolbar_location="right", x_axis_type=None, y_axis_type=None, min_border=4,
+                             outline_line_color=None, output_backend="canvas", title=_NO_TITLE, css_classes=[css])
+        self.source = ColumnDataSource(dict(image=[np.zeros((2, 2), np.float32 if mapper else np.uint32)],
+                                            x=[0.0], y=[0.0], dw=[1.0], dh=[1.0]))
+        if mapper is None:
+            r = self.figure.image_rgba(image="image", x="x", y="y", dw="dw", dh="dh", source=self.source)
+            hover = HoverTool(renderers=[r], tooltips=[("monitor R, G, B", "@image{custom}")],
+                              formatters={"@image": _rgb_hover()})
+        else:
+            r = self.figure.image(image="image", x="x", y="y", dw="dw", dh="dh", source=self.source,
+                                  color_mapper=mapper)
+            self.figure.add_layout(ColorBar(color_mapper=mapper, width=12, padding=3), "right")
+            hover = HoverTool(renderers=[r], tooltips=[("dE", "@image{0.00}")])
+        self.figure.add_tools(hover)
+        self.pane = pn.pane.Bokeh(self.figure)
+
+    def fit(self, aspect):
+        """Give the frame the shape of images of ``aspect`` (height / width) unless it has it, within
+        ``ASPECT_TOLERANCE`` (a sensor's crop); whether it changed. Called only for a view about to show such
+        an image: a change of frame lays the tab out again in the browser."""
+        if max(aspect / self.aspect, self.aspect / aspect) <= ASPECT_TOLERANCE:
+            return False
+        self.aspect = aspect
+        width, height = _frame(aspect)
+        self.figure.update(frame_width=width, frame_height=height)
+        return True
+
+    def show(self, image, title):
+        """Show ``image`` (bottom row first: packed RGBA, or values for the mapper) under ``title``."""
+        view, _ = screen_part(image, _max_side())
+        h, w = image.shape[:2]
+        self.source.data = dict(image=[view], x=[0.0], y=[0.0], dw=[1.0], dh=[h / w])
+        if self.figure.title.text != title:
+            self.figure.title.text = title
+
+
+def _fit_ranges(x_range, y_range, aspect, frame_aspect):
+    """Set the shared ranges to the whole image (scene widths, height ``aspect``) in a frame of ``frame_aspect``
+    (height / width), centred, pixels square; a reset comes back to it."""
+    if aspect <= frame_aspect:
+        x0, x1 = 0.0, 1.0
+        extra = (frame_aspect - aspect) / 2
+        y0, y1 = -extra, aspect + extra
+    else:
+        extra = (aspect / frame_aspect - 1.0) / 2
+        x0, x1, y0, y1 = -extra, 1.0 + extra, 0.0, aspect
+    x_range.update(start=x0, end=x1, reset_start=x0, reset_end=x1)
+    y_range.update(start=y0, end=y1, reset_start=y0, reset_end=y1)
+
+
+class SweepPlot:
+    """The sweep's curves, mean dE against the swept value, one per design (line and points in its colour).
+
+    A Bokeh figure whose renderers are made once per design slot and whose
+    data is replaced in place as points arrive (a plot made anew for each
+    point took the event loop ~0.1-0.3 s a point). A click calls
+    ``on_click(x, y)`` with the data coordinates.
+    """
+
+    def __init__(self, on_click=None):
+        self.figure = figure(frame_width=520, frame_height=240, tools="pan,wheel_zoom,box_zoom,reset,save",
+                             toolbar_location="right", title="")
+        self.legend = Legend(items=[], location="top_left")
+        self.figure.add_layout(self.legend)
+        self.sources, self.lines, self.points = [], [], []
+        if on_click is not None:
+            self.figure.on_event(Tap, held(lambda event: on_click(event.x, event.y)))
+
+    def update(self, curves, x_label, metric):
+        """Show ``curves``: (name, colour, xs, ys) each, for the swept parameter ``x_label`` and ``metric``."""
+        fig = self.figure
+        title = f"Mean {metric} dE against {x_label}"
+        if fig.title.text != title:
+            fig.title.text = title
+            fig.xaxis.axis_label, fig.yaxis.axis_label = x_label, f"mean {metric} dE"
+        while len(self.sources) < len(curves):  # a renderer pair for each design, made when first needed
+            src = ColumnDataSource(dict(x=[], y=[]))
+            self.lines.append(fig.line("x", "y", source=src, line_width=2))
+            self.points.append(fig.scatter("x", "y", source=src, size=8))
+            self.sources.append(src)
+            self.legend.items = list(self.legend.items) + [LegendItem(label="", renderers=[self.lines[-1], self.points[-1]])]
+        for i, src in enumerate(self.sources):
+            shown = i < len(curves)
+            if shown:
+                name, colour, xs, ys = curves[i]
+                src.data = dict(x=list(xs), y=list(ys))
+                if self.lines[i].glyph.line_color != colour:
+                    self.lines[i].glyph.line_color = colour
+                    self.points[i].glyph.update(fill_color=colour, line_color=colour)
+                if self.legend.items[i].label != {"value": name}:
+                    self.legend.items[i].label = {"value": name}
+            for model in (self.lines[i], self.points[i], self.legend.items[i]):
+                if model.visible != shown:
+                    model.visible = shown
 
 
 class HistogramPlot:
@@ -288,76 +406,41 @@ class CompareView:
         # rows that wrap: five designs, or a histogram beside a wide table, do not fit a 1366 px window's width
         self.views[:] = [pn.Row(*self.slots, styles=_WRAP), pn.Row(self.hist_pane, self.table, styles=_WRAP),
                          pn.pane.Markdown("### A/B difference"), pn.Row(self.a_select, self.b_select), self.ab_text,
-                         pn.Row(*self.ab_panes, styles=_WRAP)]
+                         pn.Row(*(v.pane for v in self.ab_views), styles=_WRAP)]
         self.sweep_area[:] = [self.sweep_pane]
 
     def _build_plots(self, aspect=1.0):
-        blank = np.zeros((2, 2, 3))
-        self.render_pipes = [streams.Pipe(data=(blank, "")) for _ in range(SLOTS)]
+        # every image view on one pair of ranges (zoom and pan linked), in scene widths
+        self.x_range, self.y_range = Range1d(0, 1), Range1d(0, aspect)
+        self._fitted = None  # (scene key, image aspect) the ranges show whole
+        self.mapper = LinearColorMapper(palette=Inferno256, low=0, high=20.0)  # one scale for every design's map
+        xy = (self.x_range, self.y_range)
+        self.render_views = [ImageView(*xy, aspect, "camsim-compare-rendered") for _ in range(SLOTS)]
+        self.de_views = [ImageView(*xy, aspect, "camsim-compare-de", self.mapper) for _ in range(SLOTS)]
         self._shown = [None] * SLOTS  # (name, rendered, dE map, scale) each slot shows
-        self.de_pipes = [streams.Pipe(data=(np.zeros((2, 2)), "", 20.0)) for _ in range(SLOTS)]
-        self.ab_pipe = streams.Pipe(data=(np.zeros((2, 2)), np.zeros((2, 2, 3)), 20.0))
-        self.render_panes = [pn.pane.HoloViews(css_classes=["camsim-compare-rendered"], linked_axes=True)
-                             for _ in self.render_pipes]
-        self.de_panes = [pn.pane.HoloViews(css_classes=["camsim-compare-de"], linked_axes=True) for _ in self.de_pipes]
-        self.ab_panes = [pn.pane.HoloViews(css_classes=["camsim-ab-de"], linked_axes=True),
-                         pn.pane.HoloViews(css_classes=["camsim-ab-wins"], linked_axes=True)]
-        self._frames = {}  # pane -> the aspect of its image frame
-        for i in range(SLOTS):
-            self._fit_slot(i, aspect)
-        self._fit_ab(aspect)
-        # one column per design slot, shown or hidden as a whole (a HoloViews pane's own ``visible``
-        # would be pushed onto its Bokeh figure, which refuses the page template's settings)
-        self.slots = [pn.Column(r, d, visible=False, css_classes=["camsim-compare-slot"])
-                      for r, d in zip(self.render_panes, self.de_panes)]
+        self.ab_mapper = LinearColorMapper(palette=Inferno256, low=0, high=20.0)
+        self.ab_views = [ImageView(*xy, aspect, "camsim-ab-de", self.ab_mapper),
+                         ImageView(*xy, aspect, "camsim-ab-wins")]
+        # one column per design slot, shown or hidden as a whole
+        self.slots = [pn.Column(r.pane, d.pane, visible=False, css_classes=["camsim-compare-slot"])
+                      for r, d in zip(self.render_views, self.de_views)]
         self.histogram = HistogramPlot()
-        self.hist_pane = pn.pane.Bokeh(self.histogram.figure, css_classes=["camsim-compare-hist"])
-        # the sweep plot changes its number of curves as designs are swept: its pane gets a new overlay
-        self.sweep_pane = pn.pane.HoloViews(self._sweep_plot(([], "noise_sigma", "CIELAB")),
-                                            css_classes=["camsim-sweep-plot"], linked_axes=False)
-        self._tap = None
+        self.histogram.figure.css_classes = ["camsim-compare-hist"]  # on the figure: a Bokeh pane does not pass it on
+        self.hist_pane = pn.pane.Bokeh(self.histogram.figure)
+        self.sweep_plot = SweepPlot(on_click=self.on_tap)
+        self.sweep_plot.update([], SWEEP_PARAMETERS.get("noise_sigma", "noise_sigma"), self.state.metric)
+        self.sweep_plot.figure.css_classes = ["camsim-sweep-plot"]
+        self.sweep_pane = pn.pane.Bokeh(self.sweep_plot.figure)
 
-    @staticmethod
-    def _show_rgb(data):
-        rgb, title = data
-        return hv.RGB(rgb, bounds=_bounds(rgb.shape)).opts(title=title)
-
-    @staticmethod
-    def _show_de(data):
-        de, title, top = data
-        return hv.Image(de, bounds=_bounds(de.shape), vdims=["dE"]).opts(title=title, clim=(0, top))
-
-    def _refit(self, pane, aspect):
-        """Whether ``pane``'s image frame must be made anew for images of ``aspect`` (height / width): made
-        for another shape, beyond ``ASPECT_TOLERANCE`` (another scene, a sensor's crop). A plot is made anew
-        only then, and only for a pane about to show such an image (a hidden slot waits until it is used)."""
-        held = self._frames.get(pane)
-        if held is not None and max(aspect / held, held / aspect) <= ASPECT_TOLERANCE:
-            return False
-        self._frames[pane] = aspect
-        return True
-
-    def _fit_slot(self, i, aspect):
-        """Slot ``i``'s rendering and dE map in frames of ``aspect``, each showing its pipe's last data."""
-        opts = _frame(aspect)
-        if self._refit(self.render_panes[i], aspect):
-            self.render_panes[i].object = hv.DynamicMap(self._show_rgb, streams=[self.render_pipes[i]]).opts(
-                hv.opts.RGB(**opts))
-        if self._refit(self.de_panes[i], aspect):
-            self.de_panes[i].object = hv.DynamicMap(self._show_de, streams=[self.de_pipes[i]]).opts(
-                hv.opts.Image(cmap="inferno", colorbar=True, **opts))
-
-    def _fit_ab(self, aspect):
-        """The A/B pair in frames of ``aspect``."""
-        opts = _frame(aspect)
-        if self._refit(self.ab_panes[0], aspect):
-            self.ab_panes[0].object = hv.DynamicMap(lambda data: hv.Image(
-                data[0], bounds=_bounds(data[0].shape), vdims=["dE"]).opts(clim=(0, data[2]),
-                                                                            title="A/B: dE between the renderings"),
-                streams=[self.ab_pipe]).opts(hv.opts.Image(cmap="inferno", colorbar=True, **opts))
-        if self._refit(self.ab_panes[1], aspect):
-            self.ab_panes[1].object = hv.DynamicMap(lambda data: hv.RGB(data[1], bounds=_bounds(data[1].shape)).opts(
-                title="closer to ideal: A blue, B orange"), streams=[self.ab_pipe]).opts(hv.opts.RGB(**opts))
+    def _fit_view(self, view, aspect):
+        """Fit ``view``'s frame to images of ``aspect``; the shared ranges to the whole image when the scene or
+        the images' shape changed (a live move keeps the user's zoom)."""
+        refit = view.fit(aspect)
+        key = (self._scene_key(), aspect)
+        if refit or self._fitted is None or self._fitted[0] != key[0] or (
+                max(aspect / self._fitted[1], self._fitted[1] / aspect) > ASPECT_TOLERANCE):
+            self._fitted = key
+            _fit_ranges(self.x_range, self.y_range, aspect, view.figure.frame_height / view.figure.frame_width)
 
     # -- pinning -----------------------------------------------------------------
     def pin(self, name=""):
@@ -562,29 +645,36 @@ class CompareView:
             self.views[:] = [self.table]
             self._status(results, top)
             return
-        self._ensure_plots(_aspect(results[0].rendered) if results else None)
-        for i in range(SLOTS):
-            if i < len(results):
-                r = results[i]
-                self._fit_slot(i, _aspect(r.rendered))
-                de = r.error_map(metric)
-                de = de if de is not None else r.delta_e
-                # a live move re-sends the live design's images only (and the maps when the shared scale moves);
-                # the arrays themselves are compared (identity), never a reused id
-                old = self._shown[i] or (None, None, None, None)
-                if old[0] != r.name or old[1] is not r.rendered:
-                    self.render_pipes[i].send((np.clip(r.rendered / 255.0, 0, 1), f"{r.name}: rendered"))
-                if old[0] != r.name or old[2] is not de or old[3] != top:
-                    self.de_pipes[i].send((de, f"{r.name}: {metric if r.error_map(metric) is not None else 'CIELAB'} dE",
-                                           top))
-                self._shown[i] = (r.name, r.rendered, de, top)
-            else:
-                self._shown[i] = None
-            self.slots[i].visible = i < len(results)
-        # the histogram is a Bokeh figure changed in place: held, its changes go through Panel's queue after the
-        # message that brings the figure, instead of reaching the page before it (see ``views.held``); the
-        # rest is sent change by change (held as one batch, pins took longer: 7089926)
-        with pn.io.hold(self._server_doc()):
+        doc = self._server_doc()
+        with pn.io.hold(doc):  # the new plots first, then their data, in order (see ``views.held``)
+            self._ensure_plots(_aspect(results[0].rendered) if results else None)
+            if self.mapper.high != top:
+                self.mapper.high = top  # every design's dE map recoloured in the browser, no map sent again
+            for i in range(SLOTS):
+                if i < len(results):
+                    r = results[i]
+                    aspect = _aspect(r.rendered)
+                    self._fit_view(self.render_views[i], aspect)
+                    self.de_views[i].fit(aspect)
+                    de = r.error_map(metric)
+                    de = de if de is not None else r.delta_e
+                    # a live move re-sends the live design's images only; the arrays themselves are compared
+                    # (identity), never a reused id
+                    old = self._shown[i] or (None, None, None)
+                    if old[1] is not r.rendered:
+                        self.render_views[i].show(monitor_rgba(r.rendered), f"{r.name}: rendered")
+                    elif old[0] != r.name:
+                        self.render_views[i].figure.title.text = f"{r.name}: rendered"
+                    label = f"{r.name}: {metric if r.error_map(metric) is not None else 'CIELAB'} dE"
+                    if old[2] is not de:
+                        self.de_views[i].show(np.ascontiguousarray(np.asarray(de, np.float32)[::-1]), label)
+                    elif self.de_views[i].figure.title.text != label:
+                        self.de_views[i].figure.title.text = label
+                    self._shown[i] = (r.name, r.rendered, de)
+                else:
+                    self._shown[i] = None
+                if self.slots[i].visible != (i < len(results)):
+                    self.slots[i].visible = i < len(results)
             self.histogram.update([(r.name, r.error_map(metric) if r.error_map(metric) is not None else r.delta_e)
                                    for r in results], metric, self.colours(results))
         names = [r.name for r in results]
@@ -650,8 +740,15 @@ class CompareView:
         tie = a.error_map(metric) == b.error_map(metric)
         idx = np.where(tie, 2, np.where(ab["a_wins"], 0, 1))
         top = shared_scale([ab["delta_e"]])
-        self._fit_ab(_aspect(ab["delta_e"]))
-        self.ab_pipe.send((ab["delta_e"], _WIN_COLOURS[idx], top))
+        aspect = _aspect(ab["delta_e"])
+        with pn.io.hold(self._server_doc()):  # after the plots, if this update made them
+            self._fit_view(self.ab_views[0], aspect)
+            self.ab_views[1].fit(aspect)
+            if self.ab_mapper.high != top:
+                self.ab_mapper.high = top
+            self.ab_views[0].show(np.ascontiguousarray(np.asarray(ab["delta_e"], np.float32)[::-1]),
+                                  "A/B: dE between the renderings")
+            self.ab_views[1].show(rgba32(_WIN_COLOURS[idx]), "closer to ideal: A blue, B orange")
         m = ab["measures"]
         a_name, b_name = md_text(a.name), md_text(b.name)
         self.ab_text.object = (f"dE\\*ab between **{a_name}** and **{b_name}**: mean {m['mean']:.2f}, median "
@@ -742,11 +839,10 @@ class CompareView:
         self._status()
 
     def show_sweep(self):
-        """Draw the sweep's points; a click on the plot loads the nearest point."""
-        plot = self._sweep_plot((list(self.points), self.state.sweep["parameter"], self.state.metric))
-        self._tap = streams.Tap(source=plot, x=None, y=None)
-        self._tap.add_subscriber(self.on_tap)
-        self.sweep_pane.object = plot
+        """Draw the sweep's points, one curve per design in its colour; a click on the plot loads the nearest point."""
+        self.sweep_plot.update(self._sweep_curves(list(self.points), self.state.metric),
+                               SWEEP_PARAMETERS.get(self.state.sweep["parameter"], self.state.sweep["parameter"]),
+                               self.state.metric)
 
     def colours(self, results=None):
         """Each design's colour (name -> colour) in every plot of the tab and in the report: the designs shown,
@@ -754,24 +850,20 @@ class CompareView:
         results = results if results is not None else self.designs()
         return design_colours([r.name for r in results], more=[p.name for p in self.points])
 
-    def _sweep_plot(self, data):
-        points, parameter, metric = data
-        label = SWEEP_PARAMETERS.get(parameter, parameter)
-        layers = [hv.Curve([], label, f"mean {metric} dE")]
+    def _sweep_curves(self, points, metric):
+        """(name, colour, xs, ys) of each design swept that has points, in the designs' order: a design left out
+        of the sweep (the message says why) has no curve and no legend entry."""
         names = {}
         for p in points:
             names.setdefault(p.design, p.name)
         colours = self.colours() if points else {}
+        curves = []
         for i, name in sorted(names.items()):
             pts = sorted((p.value, p.measure(metric)) for p in points if p.design == i and p.measures)
-            if not pts:
-                continue  # a design left out of the sweep (the message says why): no empty legend entry
-            colour = colours.get(name, DESIGN_COLOURS[i % len(DESIGN_COLOURS)])
-            layers.append(hv.Curve(pts, label, f"mean {metric} dE", label=name).opts(color=colour))
-            layers.append(hv.Scatter(pts, label, f"mean {metric} dE", label=name).opts(color=colour, size=8,
-                                                                                        tools=["tap"]))
-        return hv.Overlay(layers).opts(frame_width=520, frame_height=240, title=f"Mean {metric} dE against {label}",
-                                       legend_position="top_left", show_legend=True)
+            if pts:
+                xs, ys = zip(*pts)
+                curves.append((name, colours.get(name, DESIGN_COLOURS[i % len(DESIGN_COLOURS)]), xs, ys))
+        return curves
 
     def nearest_point(self, x, y):
         """The sweep point nearest to (x, y) in the plot, distances relative to the axes' spans."""

@@ -13,6 +13,7 @@ an electron-level sensor. No science here: every number comes from the engine.
 from __future__ import annotations
 
 import holoviews as hv
+import holoviews.plotting.bokeh  # noqa: F401  (the bokeh backend, for .opts)
 import numpy as np
 import panel as pn
 import param
@@ -23,6 +24,8 @@ from camsim_core.optics import cutoff_frequency, diffraction_mtf
 from camsim_core.simulation.electrons import photon_transfer, system_gain
 
 from .safe_text import md_text
+
+hv.Store.set_current_backend("bokeh")
 from .shown import now, off_the_loop
 from .state import ExplorerState
 from .tab import TabView

@@ -11,6 +11,7 @@ ideal image.
 from __future__ import annotations
 
 import holoviews as hv
+import holoviews.plotting.bokeh  # noqa: F401  (the bokeh backend, for .opts)
 import numpy as np
 import panel as pn
 
@@ -20,6 +21,8 @@ from camsim_core.metrics.report import default_measures, measure_images
 from .safe_text import md_text
 from .shown import now, off_the_loop
 from .tab import TabView
+
+hv.Store.set_current_backend("bokeh")
 
 __all__ = ["QualityView", "measures_for", "channel_colours", "CHANNEL_COLOURS"]
 

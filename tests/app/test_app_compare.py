@@ -63,10 +63,11 @@ def test_each_pinned_design_is_computed_once(compared, monkeypatch):
 
     monkeypatch.setattr(module, "evaluate_design", spy)
     state.noise_sigma = 3.0  # the live design changes; the pinned ones are not recomputed
-    sent = [p.data for p in view.render_pipes]
+    sent = [v.source.data["image"][0] for v in view.render_views]
     state.noise_sigma = 4.0  # another live move re-sends the live design's images only
-    assert view.render_pipes[0].data is not sent[0]
-    assert view.render_pipes[1].data is sent[1] and view.render_pipes[2].data is sent[2]
+    now = [v.source.data["image"][0] for v in view.render_views]
+    assert now[0] is not sent[0] and not np.array_equal(now[0], sent[0])
+    assert now[1] is sent[1] and now[2] is sent[2]
     view.rename("cones", "human cones")
     assert calls == []
     assert [d["name"] for d in json.loads(view.status.object)["designs"]] == ["live", "DCS-200", "human cones"]
@@ -215,7 +216,7 @@ def test_each_image_frame_takes_the_shape_of_its_image():
     def figures(root):  # what a page shows: the Bokeh figures of the tab's images (visible design slots, A/B)
         images = [f for f in root.select({"type": Plot})
                   if any(isinstance(r.glyph, (Image, ImageRGBA)) for r in f.renderers if hasattr(r, "glyph"))]
-        return [f for f in images if f.title.text]  # a slot without a design has no title
+        return [f for f in images if f.title.text.strip()]  # a slot without a design has no title
 
     state = ExplorerState()  # cacaphony290: wider than high
     view = CompareView(state)
@@ -233,8 +234,9 @@ def test_each_image_frame_takes_the_shape_of_its_image():
         x_span, y_span = fig.x_range.end - fig.x_range.start, fig.y_range.end - fig.y_range.start
         assert y_span / x_span == pytest.approx(fig.frame_height / fig.frame_width, rel=ASPECT_TOLERANCE - 1)
     # a scene taller than wide: new frames, at most MAX_FRAME_HEIGHT high, of the images' shape; a slot no design
-    # uses keeps its plot until it is used (a plot made anew costs the event loop)
-    unused = view.render_panes[-1].object
+    # uses keeps its frame until it is used (a new frame lays the tab out again in the browser)
+    unused = view.render_views[-1].figure
+    before = (unused.frame_width, unused.frame_height)
     state.scene = "munsell"
     assert state.set_chart("rows=8, cols=2")
     h, w = state.result.rendered.data.shape[:2]
@@ -242,7 +244,10 @@ def test_each_image_frame_takes_the_shape_of_its_image():
     for fig in figures(root):
         assert fig.frame_height == MAX_FRAME_HEIGHT
         assert fig.frame_width == pytest.approx(MAX_FRAME_HEIGHT * w / h, abs=1)
-    assert view.render_panes[-1].object is unused
+        x_span, y_span = fig.x_range.end - fig.x_range.start, fig.y_range.end - fig.y_range.start
+        assert y_span / x_span == pytest.approx(fig.frame_height / fig.frame_width, rel=ASPECT_TOLERANCE - 1)
+        assert fig.y_range.start <= 0 and fig.y_range.end >= h / w * 0.999  # the whole image (scene widths)
+    assert (unused.frame_width, unused.frame_height) == before
 
 
 def test_the_comparisons_status_shows_only_while_its_box_is_ticked():

@@ -71,7 +71,7 @@ _FIGURES = """() => {
     if (m.constructor && m.constructor.__name__ === 'Figure' && m.title && m.title.text) {
       const legends = m.center.filter(c => c.constructor.__name__ === 'Legend');
       const labels = legends.flatMap(l => l.items.map(i => i.label && (i.label.value || i.label.field)));
-      const scatters = m.renderers.filter(r => r.glyph && r.glyph.constructor.__name__ === 'Scatter').map(
+      const scatters = m.renderers.filter(r => r.visible && r.glyph && r.glyph.constructor.__name__ === 'Scatter').map(
         r => ({x: Array.from(r.data_source.data[r.glyph.x.field]), y: Array.from(r.data_source.data[r.glyph.y.field])}));
       const mappers = m.renderers.filter(r => r.glyph && r.glyph.color_mapper).map(r => [r.glyph.color_mapper.low, r.glyph.color_mapper.high]);
       out[m.title.text] = {x: m.x_range.id, y: m.y_range.id, legend: labels, scatters: scatters, mappers: mappers,
