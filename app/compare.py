@@ -26,6 +26,7 @@ results and shows them.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import io
 import json
@@ -36,7 +37,8 @@ from functools import partial
 import numpy as np
 import panel as pn
 from bokeh.events import Tap
-from bokeh.models import ColorBar, ColumnDataSource, HoverTool, Legend, LegendItem, LinearColorMapper, Range1d
+from bokeh.models import (ColorBar, ColumnDataSource, HoverTool, Image, ImageRGBA, Legend, LegendItem, LinearColorMapper,
+                          Range1d)
 from bokeh.palettes import Inferno256
 from bokeh.plotting import figure
 
@@ -159,18 +161,20 @@ class ImageView:
         width, height = _frame(aspect)
         self.aspect = aspect
         self.figure = figure(x_range=x_range, y_range=y_range, frame_width=width, frame_height=height,
-                             tools="pan,wheel_zoom,box_zoom,reset,save", active_scroll="wheel_zoom",
+                             tools="pan,wheel_zoom,reset,save", active_scroll="wheel_zoom",
                              toolbar_location="right", x_axis_type=None, y_axis_type=None, min_border=4,
                              outline_line_color=None, output_backend="canvas", title=_NO_TITLE, css_classes=[css])
         self.source = ColumnDataSource(dict(image=[np.zeros((2, 2), np.float32 if mapper else np.uint32)],
                                             x=[0.0], y=[0.0], dw=[1.0], dh=[1.0]))
+        # one glyph model (a renderer's selection and muted copies are made by the browser): with fewer models
+        # a view costs less to make and to add to the page
         if mapper is None:
-            r = self.figure.image_rgba(image="image", x="x", y="y", dw="dw", dh="dh", source=self.source)
+            r = self.figure.add_glyph(self.source, ImageRGBA(image="image", x="x", y="y", dw="dw", dh="dh"))
             hover = HoverTool(renderers=[r], tooltips=[("monitor R, G, B", "@image{custom}")],
                               formatters={"@image": _rgb_hover()})
         else:
-            r = self.figure.image(image="image", x="x", y="y", dw="dw", dh="dh", source=self.source,
-                                  color_mapper=mapper)
+            r = self.figure.add_glyph(self.source, Image(image="image", x="x", y="y", dw="dw", dh="dh",
+                                                         color_mapper=mapper))
             self.figure.add_layout(ColorBar(color_mapper=mapper, width=12, padding=3), "right")
             hover = HoverTool(renderers=[r], tooltips=[("dE", "@image{0.00}")])
         self.figure.add_tools(hover)
@@ -216,17 +220,18 @@ class SweepPlot:
     A Bokeh figure whose renderers are made once per design slot and whose
     data is replaced in place as points arrive (a plot made anew for each
     point took the event loop ~0.1-0.3 s a point). A click calls
-    ``on_click(x, y)`` with the data coordinates.
+    ``on_click(x, y)`` with the data coordinates, on the event loop of
+    ``doc`` (the session's document; default the current one).
     """
 
-    def __init__(self, on_click=None):
+    def __init__(self, on_click=None, doc=None):
         self.figure = figure(frame_width=520, frame_height=240, tools="pan,wheel_zoom,box_zoom,reset,save",
                              toolbar_location="right", title="")
         self.legend = Legend(items=[], location="top_left")
         self.figure.add_layout(self.legend)
         self.sources, self.lines, self.points = [], [], []
         if on_click is not None:
-            self.figure.on_event(Tap, held(lambda event: on_click(event.x, event.y)))
+            self.figure.on_event(Tap, held(lambda event: on_click(event.x, event.y), doc))
 
     def update(self, curves, x_label, metric):
         """Show ``curves``: (name, colour, xs, ys) each, for the swept parameter ``x_label`` and ``metric``."""
@@ -340,6 +345,7 @@ class CompareView:
         self._pending = False
         self._doc = pn.state.curdoc
         self._built = False  # the plots are made when there is something to compare (a light page until then)
+        self._prebuilt = None  # the plots made ahead by a worker thread (a dict for _ensure_plots)
         self._build_widgets()
         state.param.watch(self._on_pinned, ["pinned"])
         refresh, request_update = when_shown(self.refresh), when_shown(self._request_update)
@@ -397,40 +403,49 @@ class CompareView:
                                        css_classes=["w-report"], width=260)
 
     def _ensure_plots(self, aspect=None):
-        """Make the plots (once) and put them on the tab, image frames of ``aspect`` (height / width; None:
-        square until the first images come)."""
+        """Put the plots on the tab (made once: by the thread that computed the first pinned designs, or here),
+        image frames of ``aspect`` (height / width; None: square until the first images come)."""
         if self._built:
             return
         self._built = True
-        self._build_plots(1.0 if aspect is None else aspect)
+        plots, self._prebuilt = self._prebuilt, None
+        self.__dict__.update(plots or self._make_plots(1.0 if aspect is None else aspect))
         # rows that wrap: five designs, or a histogram beside a wide table, do not fit a 1366 px window's width
         self.views[:] = [pn.Row(*self.slots, styles=_WRAP), pn.Row(self.hist_pane, self.table, styles=_WRAP),
                          pn.pane.Markdown("### A/B difference"), pn.Row(self.a_select, self.b_select), self.ab_text,
                          pn.Row(*(v.pane for v in self.ab_views), styles=_WRAP)]
         self.sweep_area[:] = [self.sweep_pane]
 
-    def _build_plots(self, aspect=1.0):
-        # every image view on one pair of ranges (zoom and pan linked), in scene widths
-        self.x_range, self.y_range = Range1d(0, 1), Range1d(0, aspect)
-        self._fitted = None  # (scene key, image aspect) the ranges show whole
-        self.mapper = LinearColorMapper(palette=Inferno256, low=0, high=20.0)  # one scale for every design's map
-        xy = (self.x_range, self.y_range)
-        self.render_views = [ImageView(*xy, aspect, "camsim-compare-rendered") for _ in range(SLOTS)]
-        self.de_views = [ImageView(*xy, aspect, "camsim-compare-de", self.mapper) for _ in range(SLOTS)]
-        self._shown = [None] * SLOTS  # (name, rendered, dE map, scale) each slot shows
-        self.ab_mapper = LinearColorMapper(palette=Inferno256, low=0, high=20.0)
-        self.ab_views = [ImageView(*xy, aspect, "camsim-ab-de", self.ab_mapper),
-                         ImageView(*xy, aspect, "camsim-ab-wins")]
-        # one column per design slot, shown or hidden as a whole
-        self.slots = [pn.Column(r.pane, d.pane, visible=False, css_classes=["camsim-compare-slot"])
-                      for r, d in zip(self.render_views, self.de_views)]
-        self.histogram = HistogramPlot()
-        self.histogram.figure.css_classes = ["camsim-compare-hist"]  # on the figure: a Bokeh pane does not pass it on
-        self.hist_pane = pn.pane.Bokeh(self.histogram.figure)
-        self.sweep_plot = SweepPlot(on_click=self.on_tap)
-        self.sweep_plot.update([], SWEEP_PARAMETERS.get("noise_sigma", "noise_sigma"), self.state.metric)
-        self.sweep_plot.figure.css_classes = ["camsim-sweep-plot"]
-        self.sweep_pane = pn.pane.Bokeh(self.sweep_plot.figure)
+    def _prebuild(self, aspect):
+        """Make the plots ahead, in a worker thread, for :meth:`_ensure_plots` to show: the Bokeh models of a
+        dozen figures take ~0.4 s to make, which on the event loop held every session's page as long."""
+        if not self._built and self._prebuilt is None:
+            self._prebuilt = self._make_plots(aspect)
+
+    def _make_plots(self, aspect=1.0):
+        """The tab's plots, as attributes of the view (a dict); touches nothing shown (any thread)."""
+        x_range, y_range = Range1d(0, 1), Range1d(0, aspect)  # every image view on them (zoom and pan linked)
+        mapper = LinearColorMapper(palette=Inferno256, low=0, high=20.0)  # one scale for every design's map
+        ab_mapper = LinearColorMapper(palette=Inferno256, low=0, high=20.0)
+        xy = (x_range, y_range)
+        render_views = [ImageView(*xy, aspect, "camsim-compare-rendered") for _ in range(SLOTS)]
+        de_views = [ImageView(*xy, aspect, "camsim-compare-de", mapper) for _ in range(SLOTS)]
+        histogram = HistogramPlot()
+        histogram.figure.css_classes = ["camsim-compare-hist"]  # on the figure: a Bokeh pane does not pass it on
+        sweep_plot = SweepPlot(on_click=self.on_tap, doc=self._server_doc())
+        sweep_plot.update([], SWEEP_PARAMETERS.get("noise_sigma", "noise_sigma"), self.state.metric)
+        sweep_plot.figure.css_classes = ["camsim-sweep-plot"]
+        return dict(
+            x_range=x_range, y_range=y_range, mapper=mapper, ab_mapper=ab_mapper,
+            _fitted=None,  # (scene key, image aspect) the ranges show whole
+            render_views=render_views, de_views=de_views,
+            _shown=[None] * SLOTS,  # (name, rendered, dE map) each slot shows
+            ab_views=[ImageView(*xy, aspect, "camsim-ab-de", ab_mapper), ImageView(*xy, aspect, "camsim-ab-wins")],
+            # one column per design slot, shown or hidden as a whole
+            slots=[pn.Column(r.pane, d.pane, visible=False, css_classes=["camsim-compare-slot"])
+                   for r, d in zip(render_views, de_views)],
+            histogram=histogram, hist_pane=pn.pane.Bokeh(histogram.figure),
+            sweep_plot=sweep_plot, sweep_pane=pn.pane.Bokeh(sweep_plot.figure))
 
     def _fit_view(self, view, aspect):
         """Fit ``view``'s frame to images of ``aspect``; the shared ranges to the whole image when the scene or
@@ -548,6 +563,7 @@ class CompareView:
                 result = evaluate_design(params, p["name"], scene=scene, pipeline=pipeline)
                 self.store.put(key, params, result)
                 self.errors.pop(p["name"], None)
+                self._prebuild(_aspect(result.rendered))  # once: the plots the first update will show
             except CamsimError as exc:
                 self.errors[p["name"]] = str(exc)
             except Exception as exc:  # never a dead page
@@ -646,7 +662,9 @@ class CompareView:
             self._status(results, top)
             return
         doc = self._server_doc()
-        with pn.io.hold(doc):  # the new plots first, then their data, in order (see ``views.held``)
+        # held: the new plots first, then their data, in order (see ``views.held``); frozen: the document's models
+        # are listed again once, after every change (Bokeh walks the whole page's models for each otherwise)
+        with pn.io.hold(doc), (doc.models.freeze() if doc is not None else contextlib.nullcontext()):
             self._ensure_plots(_aspect(results[0].rendered) if results else None)
             if self.mapper.high != top:
                 self.mapper.high = top  # every design's dE map recoloured in the browser, no map sent again
@@ -817,6 +835,7 @@ class CompareView:
 
     def _sweep_work(self, cancel, points):
         try:
+            self._prebuild(1.0)  # the plots, made here rather than on the event loop
             for p in points:
                 if cancel.is_set():
                     break
