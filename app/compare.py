@@ -31,6 +31,7 @@ import dataclasses
 import io
 import json
 import threading
+import time
 from collections import OrderedDict
 from functools import partial
 
@@ -60,6 +61,9 @@ __all__ = ["CompareView", "DesignStore", "compare_tab"]
 
 LIVE = "live"
 SLOTS = MAX_PINNED + 1
+#: While pinned designs are computed, the tab shows those done at most this often (seconds): designs that come
+#: quickly are shown together (each update lays the whole tab out again in the browser).
+UPDATE_EVERY_S = 1.0
 #: An image's frame is this wide (pixels), or narrower for a tall image ...
 FRAME_WIDTH = 250
 #: ... whose frame is this high at most.
@@ -346,6 +350,7 @@ class CompareView:
         self._doc = pn.state.curdoc
         self._built = False  # the plots are made when there is something to compare (a light page until then)
         self._prebuilt = None  # the plots made ahead by a worker thread (a dict for _ensure_plots)
+        self._started = self._updated = 0.0  # when the designs computing began, when the tab was last updated
         self._build_widgets()
         state.param.watch(self._on_pinned, ["pinned"])
         refresh, request_update = when_shown(self.refresh), when_shown(self._request_update)
@@ -539,6 +544,7 @@ class CompareView:
             self.message.object = f"**Refused:** {md_text(exc)}"
             return
         self._computing = True
+        self._started = time.monotonic()
         self.progress.max, self.progress.value = len(missing), 0
         self.message.object = f"Computing {len(missing)} pinned design(s) on {md_text(self.state.scene)}..."
         # what the live design's pipeline has computed (shared arrays, no copy): a design pinned as it is shown
@@ -578,7 +584,10 @@ class CompareView:
             self._computing = False
             self.progress.value = 0
             self.message.object = "; ".join(f"**{md_text(n)}** refused: {md_text(m)}" for n, m in self.errors.items())
-        self._safely(self.update)
+        # the designs shown together when they come quickly (each update lays the tab out again in the browser),
+        # one by one when each takes a while
+        if done == total or time.monotonic() - max(self._started, self._updated) >= UPDATE_EVERY_S:
+            self._safely(self.update)
 
     def _safely(self, fn):
         """Run a view update from a callback; a failure shows a message (and goes to the log), never a dead tab."""
@@ -652,6 +661,7 @@ class CompareView:
 
     def update(self):
         """Show the current designs: images, histograms, table, A/B choices, status."""
+        self._updated = time.monotonic()
         results = self.designs()
         metric = self.state.metric
         maps = [r.error_map(metric) for r in results if r.error_map(metric) is not None]
@@ -662,9 +672,11 @@ class CompareView:
             self._status(results, top)
             return
         doc = self._server_doc()
-        # held: the new plots first, then their data, in order (see ``views.held``); frozen: the document's models
-        # are listed again once, after every change (Bokeh walks the whole page's models for each otherwise)
-        with pn.io.hold(doc), (doc.models.freeze() if doc is not None else contextlib.nullcontext()):
+        # held: the new plots first, then their data, in order (see ``views.held``); frozen while the plots are put
+        # on the page: the document's models are listed again once, not after each change (Bokeh walks the whole
+        # page's models each time; frozen when nothing is added, it would walk them once for nothing)
+        adding = doc is not None and not self._built
+        with pn.io.hold(doc), (doc.models.freeze() if adding else contextlib.nullcontext()):
             self._ensure_plots(_aspect(results[0].rendered) if results else None)
             if self.mapper.high != top:
                 self.mapper.high = top  # every design's dE map recoloured in the browser, no map sent again
