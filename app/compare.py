@@ -159,6 +159,28 @@ class ImageView:
     image and each new frame shape, and with four designs pinned that held
     the session's event loop for seconds (1.56 s making plots, 1.37 s sending
     images, when a link restored them).
+
+    Parameters
+    ----------
+    x_range, y_range : bokeh.models.Range1d
+        The ranges shared by the tab's image views (scene widths).
+    aspect : float
+        Height / width of the images it will show: the frame's shape (:func:`_frame`).
+    css : str
+        The figure's CSS class (tests and the page's styles find it by it).
+    mapper : bokeh.models.LinearColorMapper, optional
+        For a dE map: the mapper colouring its values (and drawn as its colour bar). Without it the view
+        shows packed RGBA.
+
+    Examples
+    --------
+    >>> from bokeh.models import Range1d
+    >>> view = ImageView(Range1d(0, 1), Range1d(0, 0.5), 0.5, "camsim-example")
+    >>> view.figure.frame_width, view.figure.frame_height
+    (250, 125)
+    >>> view.show(np.zeros((100, 200), np.uint32), "a black image")
+    >>> view.source.data["dh"], view.figure.title.text
+    ([0.5], 'a black image')
     """
 
     def __init__(self, x_range, y_range, aspect, css, mapper=None):
@@ -226,6 +248,13 @@ class SweepPlot:
     point took the event loop ~0.1-0.3 s a point). A click calls
     ``on_click(x, y)`` with the data coordinates, on the event loop of
     ``doc`` (the session's document; default the current one).
+
+    Examples
+    --------
+    >>> plot = SweepPlot()
+    >>> plot.update([("dcs", "#1f77b4", (0.0, 2.0), (1.5, 2.5))], "noise sigma", "CIELAB")
+    >>> plot.figure.title.text, list(plot.sources[0].data["y"])
+    ('Mean CIELAB dE against noise sigma', [1.5, 2.5])
     """
 
     def __init__(self, on_click=None, doc=None):

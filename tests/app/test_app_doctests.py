@@ -6,7 +6,8 @@ import importlib
 import pytest
 
 MODULES = ["camsim_explorer.quality", "camsim_explorer.physical", "camsim_explorer.views",
-           "camsim_explorer.loop_watch", "camsim_explorer.tab", "camsim_explorer.shown", "camsim_explorer.collector"]
+           "camsim_explorer.loop_watch", "camsim_explorer.tab", "camsim_explorer.shown", "camsim_explorer.collector",
+           "camsim_explorer.compare"]
 
 
 @pytest.mark.parametrize("name", MODULES)
