@@ -21,8 +21,8 @@ import numpy as np
 import panel as pn
 import param
 from bokeh.events import RangesUpdate, SelectionGeometry, Tap
-from bokeh.models import (BoxSelectTool, ColumnDataSource, CustomJSHover, DataRange1d, HoverTool,
-                          LinearColorMapper, Range1d, Span, TapTool)
+from bokeh.models import (BoxSelectTool, ColumnDataSource, CustomJSHover, DataRange1d, HoverTool, Image,
+                          ImageRGBA, LinearColorMapper, Range1d, Span, TapTool)
 from bokeh.palettes import Category10, Greys256, Inferno256
 from bokeh.plotting import figure
 from panel.models.markup import HTML as HTMLModel
@@ -388,6 +388,13 @@ def de_rgba(values, low, high):
     return out
 
 
+def _rgba_glyph():
+    """The glyph of an image view (packed RGBA from the source's ``image``, ``x``, ``y``, ``dw``, ``dh``
+    columns), added with ``figure.add_glyph``: one glyph model, where ``figure.image_rgba`` adds three (its
+    selection and muted copies, which an image never uses): fewer models to make and send with each page."""
+    return ImageRGBA(image="image", x="x", y="y", dw="dw", dh="dh")
+
+
 def _image_figure(x_range, y_range, name, shape):
     """A borderless figure that shows an image filling its frame, width following the page."""
     h, w = shape
@@ -423,7 +430,7 @@ class ColourBar:
         fig.grid.visible = False
         fig.xaxis.axis_label_standoff = 2
         self.source = ColumnDataSource(dict(image=[np.zeros((1, 256))], x=[0.0], y=[0.0], dw=[1.0], dh=[1.0]))
-        fig.image(image="image", x="x", y="y", dw="dw", dh="dh", source=self.source, color_mapper=mapper)
+        fig.add_glyph(self.source, Image(image="image", x="x", y="y", dw="dw", dh="dh", color_mapper=mapper))
         self.figure = fig
         self.set(mapper.low, mapper.high)
 
@@ -604,7 +611,7 @@ class ResultsView:
             if key == "de":  # coloured here (de_rgba); the values for the hover
                 cols["value"] = [np.zeros(self.shape, np.float32)]
             src = ColumnDataSource(cols)
-            r = fig.image_rgba(image="image", x="x", y="y", dw="dw", dh="dh", source=src)
+            r = fig.add_glyph(src, _rgba_glyph())
             if key == "de":
                 self.mapper = LinearColorMapper(palette=Inferno256, low=DE_RANGE[0], high=DE_RANGE[1])  # the bar's
                 tips = [("dE", "@value{0.00}")]
@@ -1087,12 +1094,12 @@ class SceneView(TabView):
             fig.add_tools(TapTool(), box)
             fig.toolbar.active_drag = box  # "drag a box" selects a region (a drag panned the image)
             if key == "rgb":
-                r = fig.image_rgba(image="image", x="x", y="y", dw="dw", dh="dh", source=self.rgb_source)
+                r = fig.add_glyph(self.rgb_source, _rgba_glyph())
                 fig.add_tools(HoverTool(renderers=[r], tooltips=[("x, y", "$x{0}, $y{0}"), ("sRGB", "@image{custom}")],
                                         formatters={"@image": _rgb_hover()}))
             else:
-                r = fig.image(image="image", x="x", y="y", dw="dw", dh="dh", source=self.plane_source,
-                              color_mapper=self.plane_mapper)
+                r = fig.add_glyph(self.plane_source, Image(image="image", x="x", y="y", dw="dw", dh="dh",
+                                                           color_mapper=self.plane_mapper))
                 fig.add_tools(HoverTool(renderers=[r], tooltips=[("x, y", "$x{0}, $y{0}"),
                                                                  (f"radiance ({self.UNIT})", "@image{0.0000}")]))
             fig.rect(x="x", y="y", width="w", height="h", source=self.marks, fill_alpha=0.25, fill_color="color",
