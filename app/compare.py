@@ -54,8 +54,9 @@ from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
 
 from .safe_text import PlainText, html_text, md_text
 from .shown import now
+from . import state as state_module
 from .state import short_repr
-from .views import ASPECT_TOLERANCE, _rgb_hover, held, monitor_rgba, once, rgba32, screen_part
+from .views import ASPECT_TOLERANCE, _rgb_hover, fit_ranges, held, monitor_rgba, once, rgba32, screen_part
 
 __all__ = ["CompareView", "DesignStore", "compare_tab"]
 
@@ -130,13 +131,6 @@ class DesignStore:
     @property
     def nbytes(self):
         return sum(r.nbytes for r in self._items.values())
-
-
-def _max_side():
-    """The most pixels an image view sends along a side (the server's ``--max-view-side``)."""
-    from . import state as state_module
-
-    return state_module.LIMITS.max_view_side
 
 
 #: The title of an image view before it shows an image: not empty, so that the browser keeps the title's room (a
@@ -219,25 +213,11 @@ class ImageView:
 
     def show(self, image, title):
         """Show ``image`` (bottom row first: packed RGBA, or values for the mapper) under ``title``."""
-        view, _ = screen_part(image, _max_side())
+        view, _ = screen_part(image, state_module.LIMITS.max_view_side)  # the server's --max-view-side
         h, w = image.shape[:2]
         self.source.data = dict(image=[view], x=[0.0], y=[0.0], dw=[1.0], dh=[h / w])
         if self.figure.title.text != title:
             self.figure.title.text = title
-
-
-def _fit_ranges(x_range, y_range, aspect, frame_aspect):
-    """Set the shared ranges to the whole image (scene widths, height ``aspect``) in a frame of ``frame_aspect``
-    (height / width), centred, pixels square; a reset comes back to it."""
-    if aspect <= frame_aspect:
-        x0, x1 = 0.0, 1.0
-        extra = (frame_aspect - aspect) / 2
-        y0, y1 = -extra, aspect + extra
-    else:
-        extra = (aspect / frame_aspect - 1.0) / 2
-        x0, x1, y0, y1 = -extra, 1.0 + extra, 0.0, aspect
-    x_range.update(start=x0, end=x1, reset_start=x0, reset_end=x1)
-    y_range.update(start=y0, end=y1, reset_start=y0, reset_end=y1)
 
 
 class SweepPlot:
@@ -489,7 +469,7 @@ class CompareView:
         if refit or self._fitted is None or self._fitted[0] != key[0] or (
                 max(aspect / self._fitted[1], self._fitted[1] / aspect) > ASPECT_TOLERANCE):
             self._fitted = key
-            _fit_ranges(self.x_range, self.y_range, aspect, view.figure.frame_height / view.figure.frame_width)
+            fit_ranges(self.x_range, self.y_range, 1.0, aspect, view.figure.frame_width / view.figure.frame_height)
 
     # -- pinning -----------------------------------------------------------------
     def pin(self, name=""):

@@ -40,8 +40,8 @@ from .state import exposure_warnings, mean_level
 from .tab import TabView
 
 
-__all__ = ["held", "sensor_colors", "scene_srgb", "raw_rgb", "planes_rgb", "rgba32", "screen_part", "histogram", "de_range",
-           "ResultsView", "SceneView", "CameraView"]
+__all__ = ["held", "sensor_colors", "scene_srgb", "raw_rgb", "planes_rgb", "rgba32", "screen_part", "fit_ranges",
+           "histogram", "de_range", "ResultsView", "SceneView", "CameraView"]
 
 #: The fixed dE colour scale (an option, for comparing designs); by default the scale follows the data.
 DE_RANGE = (0.0, 20.0)
@@ -395,6 +395,28 @@ def _rgba_glyph():
     return ImageRGBA(image="image", x="x", y="y", dw="dw", dh="dh")
 
 
+def fit_ranges(x_range, y_range, width, height, frame_aspect):
+    """Set an image view's ranges to show a ``width`` x ``height`` image whole, centred, with square pixels, in a
+    frame of ``frame_aspect`` (width / height): the image fills the frame's width or its height, the rest is
+    margin. The ranges' reset values are set too (a reset tool comes back to the whole image).
+
+    Examples
+    --------
+    >>> x, y = Range1d(0, 1), Range1d(0, 1)
+    >>> fit_ranges(x, y, 200, 100, 1.0)  # a wide image in a square frame: full width, margins above and below
+    >>> (x.start, x.end), (y.start, y.end)
+    ((0, 200), (-50.0, 150.0))
+    """
+    if width / height >= frame_aspect:  # as wide or wider: full width
+        extra = width / frame_aspect - height
+        x0, x1, y0, y1 = 0, width, -extra / 2, height + extra / 2
+    else:
+        extra = height * frame_aspect - width
+        x0, x1, y0, y1 = -extra / 2, width + extra / 2, 0, height
+    x_range.update(start=x0, end=x1, reset_start=x0, reset_end=x1)
+    y_range.update(start=y0, end=y1, reset_start=y0, reset_end=y1)
+
+
 def _image_figure(x_range, y_range, name, shape):
     """A borderless figure that shows an image filling its frame, width following the page."""
     h, w = shape
@@ -682,14 +704,7 @@ class ResultsView:
             for key in self._full:
                 self._send_screen(key)
         h, w = self.shape
-        if w / h >= self.frame_aspect:  # as wide or wider: full width
-            extra = w / self.frame_aspect - h
-            self.x_range.update(start=0, end=w)
-            self.y_range.update(start=-extra / 2, end=h + extra / 2)
-        else:
-            extra = h * self.frame_aspect - w
-            self.x_range.update(start=-extra / 2, end=w + extra / 2)
-            self.y_range.update(start=0, end=h)
+        fit_ranges(self.x_range, self.y_range, w, h, self.frame_aspect)
 
     def _send(self, key, image, place=None, **extra):
         """Replace an image view's data; only the columns that changed go to the browser.

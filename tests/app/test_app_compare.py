@@ -250,6 +250,47 @@ def test_each_image_frame_takes_the_shape_of_its_image():
     assert (unused.frame_width, unused.frame_height) == before
 
 
+def test_a_zoom_survives_a_live_move_and_a_new_scene_shows_the_whole_image(compared):
+    """The images' shared ranges are set to the whole image only for a new scene or image shape: a user
+    zoomed into the designs keeps the zoom while changing the live design (they were reset at every image)."""
+    state, view = compared
+    x, y = view.x_range, view.y_range
+    h, w = state.result.rendered.data.shape[:2]
+    assert x.start <= 0 and x.end >= 1 and y.start <= 0 and y.end >= h / w * 0.999  # scene widths, whole
+    x.update(start=0.2, end=0.4)  # zoomed in, as the browser would set it
+    y.update(start=0.1, end=0.2)
+    state.noise_sigma = 3.0  # a live move: new images for the live design, the zoom kept
+    assert (x.start, x.end, y.start, y.end) == (0.2, 0.4, 0.1, 0.2)
+    state.scene = "bfgb128"  # another scene: the whole image again (and the reset tool comes back to it)
+    h, w = state.result.rendered.data.shape[:2]
+    assert x.start <= 0 and x.end >= 1 and y.start <= 0 and y.end >= h / w * 0.999
+    assert (x.reset_start, x.reset_end, y.reset_start, y.reset_end) == (x.start, x.end, y.start, y.end)
+
+
+def test_designs_that_come_quickly_are_shown_in_one_update(compared, monkeypatch):
+    """Each update lays the whole tab out in the browser: designs done within UPDATE_EVERY_S of the start of
+    their computation, or of the last update, wait for the last one; a slow batch still shows progress."""
+    import time
+
+    import camsim_explorer.compare as module
+
+    state, view = compared
+    shown = []
+    monkeypatch.setattr(view, "update", lambda: shown.append(view.progress.value))
+    view._generation += 1
+    view.progress.max, view._started = 3, time.monotonic()  # as ``refresh`` starts three designs
+    view._progress(view._generation, 1, 3)
+    view._progress(view._generation, 2, 3)
+    assert shown == []  # quick: nothing shown yet, the bar moves
+    assert view.progress.value == 2
+    view._progress(view._generation, 3, 3)
+    assert len(shown) == 1  # all three at once
+    view._started = time.monotonic() - module.UPDATE_EVERY_S  # a batch computing for a while
+    view._updated = 0.0
+    view._progress(view._generation, 1, 3)
+    assert len(shown) == 2  # shown as it comes
+
+
 def test_the_comparisons_status_shows_only_while_its_box_is_ticked():
     """The raw JSON status (for scripts) is hidden until asked for (issue 38: it was always in view)."""
     view = CompareView(ExplorerState(start=False))
