@@ -37,9 +37,7 @@ from functools import partial
 
 import numpy as np
 import panel as pn
-from bokeh.events import Tap
-from bokeh.models import (ColorBar, ColumnDataSource, HoverTool, Image, ImageRGBA, Legend, LegendItem, LinearColorMapper,
-                          Range1d)
+from bokeh.models import ColorBar, ColumnDataSource, HoverTool, Image, ImageRGBA, LinearColorMapper, Range1d
 from bokeh.palettes import Inferno256
 from bokeh.plotting import figure
 
@@ -52,11 +50,12 @@ from camsim_core.review.difference import ab_difference
 from camsim_core.review.report import DESIGN_COLOURS, design_colours, quality_cell, report_html, shared_scale
 from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
 
+from .curves import CurvesPlot
 from .safe_text import PlainText, html_text, md_text
 from .shown import now
 from . import state as state_module
 from .state import short_repr
-from .views import ASPECT_TOLERANCE, _rgb_hover, fit_ranges, held, monitor_rgba, once, rgba32, screen_part
+from .views import ASPECT_TOLERANCE, _rgb_hover, fit_ranges, monitor_rgba, once, rgba32, screen_part
 
 __all__ = ["CompareView", "DesignStore", "compare_tab"]
 
@@ -223,11 +222,11 @@ class ImageView:
 class SweepPlot:
     """The sweep's curves, mean dE against the swept value, one per design (line and points in its colour).
 
-    A Bokeh figure whose renderers are made once per design slot and whose
-    data is replaced in place as points arrive (a plot made anew for each
-    point took the event loop ~0.1-0.3 s a point). A click calls
-    ``on_click(x, y)`` with the data coordinates, on the event loop of
-    ``doc`` (the session's document; default the current one).
+    A :class:`~camsim_explorer.curves.CurvesPlot` (made once, its data
+    replaced in place as points arrive: a plot made anew for each point took
+    the event loop ~0.1-0.3 s a point). A click calls ``on_click(x, y)``
+    with the data coordinates, on the event loop of ``doc`` (the session's
+    document; default the current one).
 
     Examples
     --------
@@ -238,40 +237,15 @@ class SweepPlot:
     """
 
     def __init__(self, on_click=None, doc=None):
-        self.figure = figure(frame_width=520, frame_height=240, tools="pan,wheel_zoom,box_zoom,reset,save",
-                             toolbar_location="right", title="")
-        self.legend = Legend(items=[], location="top_left")
-        self.figure.add_layout(self.legend)
-        self.sources, self.lines, self.points = [], [], []
-        if on_click is not None:
-            self.figure.on_event(Tap, held(lambda event: on_click(event.x, event.y), doc))
+        self.curves = CurvesPlot(frame_width=520, frame_height=240, legend_location="top_left", points=True,
+                                 on_click=on_click, doc=doc)
+        self.figure, self.legend = self.curves.figure, self.curves.legend
+        self.sources, self.lines, self.points = self.curves.sources, self.curves.lines, self.curves.points
 
     def update(self, curves, x_label, metric):
         """Show ``curves``: (name, colour, xs, ys) each, for the swept parameter ``x_label`` and ``metric``."""
-        fig = self.figure
-        title = f"Mean {metric} dE against {x_label}"
-        if fig.title.text != title:
-            fig.title.text = title
-            fig.xaxis.axis_label, fig.yaxis.axis_label = x_label, f"mean {metric} dE"
-        while len(self.sources) < len(curves):  # a renderer pair for each design, made when first needed
-            src = ColumnDataSource(dict(x=[], y=[]))
-            self.lines.append(fig.line("x", "y", source=src, line_width=2))
-            self.points.append(fig.scatter("x", "y", source=src, size=8))
-            self.sources.append(src)
-            self.legend.items = list(self.legend.items) + [LegendItem(label="", renderers=[self.lines[-1], self.points[-1]])]
-        for i, src in enumerate(self.sources):
-            shown = i < len(curves)
-            if shown:
-                name, colour, xs, ys = curves[i]
-                src.data = dict(x=list(xs), y=list(ys))
-                if self.lines[i].glyph.line_color != colour:
-                    self.lines[i].glyph.line_color = colour
-                    self.points[i].glyph.update(fill_color=colour, line_color=colour)
-                if self.legend.items[i].label != {"value": name}:
-                    self.legend.items[i].label = {"value": name}
-            for model in (self.lines[i], self.points[i], self.legend.items[i]):
-                if model.visible != shown:
-                    model.visible = shown
+        self.curves.update(curves, title=f"Mean {metric} dE against {x_label}", x_label=x_label,
+                           y_label=f"mean {metric} dE")
 
 
 class HistogramPlot:

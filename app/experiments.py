@@ -9,36 +9,66 @@ one panel per rendering method, one curve per noise level.
 from __future__ import annotations
 
 import threading
-import holoviews as hv
-import holoviews.plotting.bokeh  # noqa: F401  (the bokeh backend, for .opts)
+
 import panel as pn
 
 from camsim_core.errors import CamsimError
 
+from .curves import Curve, CurvesPlot
 from .safe_text import md_text
 from .views import once
 
-hv.Store.set_current_backend("bokeh")
-
-__all__ = ["ExperimentsView", "sensors_plot"]
+__all__ = ["ExperimentsView", "sensors_curves", "sensors_plot"]
 
 METHODS = ("baseline", "illuminant")
 
 
-def sensors_plot(records):
-    """Two panels like Figure 1.14 (a list of two Overlays): mean S-CIELAB dE vs alpha
-    per noise sigma, for each rendering method."""
+#: The curves' colours, one per noise level in turn.
+_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f")
+
+
+def sensors_curves(records):
+    """The curves of Figure 1.14 from the engine's sweep records: ``{method: [Curve, ...]}``, mean S-CIELAB
+    dE against alpha, one curve per noise sigma (in increasing order), for each rendering method.
+
+    Examples
+    --------
+    >>> records = [{"alpha": a, "sigma": s, "baseline": a + s, "illuminant": a} for a in (0, 1) for s in (0, 5)]
+    >>> [(c.name, list(c.ys)) for c in sensors_curves(records)["baseline"]]
+    [('sigma 0', [0.0, 1.0]), ('sigma 5', [5.0, 6.0])]
+    """
     sigmas = sorted({float(r["sigma"]) for r in records})
-    panels = []
+    out = {}
     for method in METHODS:
-        curves = []
-        for s in sigmas:
+        out[method] = []
+        for i, s in enumerate(sigmas):
             pts = sorted((float(r["alpha"]), float(r[method])) for r in records if float(r["sigma"]) == s)
-            curves.append(hv.Curve(pts, "alpha", "mean S-CIELAB dE", label=f"sigma {s:g}")
-                          * hv.Scatter(pts, "alpha", "mean S-CIELAB dE", label=f"sigma {s:g}"))
-        panels.append(hv.Overlay(curves).opts(title=f"{method} rendering", width=380, height=300,
-                                              legend_position="top_left"))
-    return panels
+            out[method].append(Curve(f"sigma {s:g}", _COLOURS[i % len(_COLOURS)], [p[0] for p in pts],
+                                     [p[1] for p in pts]))
+    return out
+
+
+def _panel(method):
+    return CurvesPlot(f"{method}: not run yet", "alpha", "mean S-CIELAB dE", frame_width=320, frame_height=240,
+                      legend_location="top_left", points=True)
+
+
+def sensors_plot(records):
+    """Two panels like Figure 1.14 (a list of two Bokeh figures, baseline and illuminant rendering): mean
+    S-CIELAB dE against alpha, one curve (line and points) per noise sigma.
+
+    Examples
+    --------
+    >>> records = [{"alpha": a, "sigma": 0, "baseline": a, "illuminant": a / 2} for a in (0, 0.5, 1)]
+    >>> [f.title.text for f in sensors_plot(records)]
+    ['baseline rendering', 'illuminant rendering']
+    """
+    figures = []
+    for method, curves in sensors_curves(records).items():
+        plot = _panel(method)
+        plot.update(curves, title=f"{method} rendering")
+        figures.append(plot.figure)
+    return figures
 
 
 #: The longest text taken in the alphas or sigmas box (characters): 30 configurations need far fewer.
@@ -58,8 +88,9 @@ class ExperimentsView:
             "A small version of Figure 1.14 (one seed, cacaphony290, no mosaic): cameras "
             "(1 - alpha) x cones + alpha x DCS-200. The full sweep: `camsim experiment sensors`.",
             css_classes=["camsim-exp-message"])
-        self.plots = [pn.pane.HoloViews(hv.Curve([]).opts(width=380, height=300, title=f"{m}: not run yet"),
-                                        css_classes=["camsim-exp-plot"], linked_axes=False) for m in METHODS]
+        self.curves = {m: _panel(m) for m in METHODS}
+        self.plots = [pn.Column(pn.pane.Bokeh(c.figure), css_classes=["camsim-exp-plot"], margin=0)
+                      for c in self.curves.values()]
         self.plot_row = pn.Row(*self.plots, visible=False)  # shown once a run has results: no empty axes before
 
     def _parse(self, text, name):
@@ -103,8 +134,8 @@ class ExperimentsView:
         if error:
             self.message.object = error
         else:
-            for pane, panel in zip(self.plots, sensors_plot(records)):
-                pane.object = panel
+            for method, curves in sensors_curves(records).items():
+                self.curves[method].update(curves, title=f"{method} rendering")
             self.plot_row.visible = True
             self.message.object = f"Done: {len(records)} configurations (mean S-CIELAB dE against the ideal image)."
         self.button.disabled = False

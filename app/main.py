@@ -122,7 +122,7 @@ def _quiet_known_warnings():
     ws = logging.getLogger("bokeh.server.views.ws")
     if not any(isinstance(f, _ClosedTabFilter) for f in ws.filters):
         ws.addFilter(_ClosedTabFilter())
-    # HoloViews plots sized by their frame (frame_width / frame_height) are valid but make Bokeh warn
+    # Plots sized by their frame (frame_width / frame_height) are valid but make Bokeh warn
     # W-1005 FIXED_SIZING_MODE once per plot and session: silence that one check, not the log.
     silence(FIXED_SIZING_MODE, True)
 
@@ -526,12 +526,8 @@ def _lazy_tabs(state, views):
         tab is shown again now, its plots were out of the document when the theme changed)."""
         if doc is None:
             return
-        if themes.get(index, doc.theme) is not doc.theme:
-            if back:
-                state.defer(lambda: resend_plot_text(doc))  # once the tab's plots are back in the document
-            for pane in holders[index].select(pn.pane.HoloViews):
-                # HoloViews copies the theme's text sizes into a plot when it makes it: made again
-                pane.param.trigger("object")
+        if back and themes.get(index, doc.theme) is not doc.theme:
+            state.defer(lambda: resend_plot_text(doc))  # once the tab's plots are back in the document
         themes[index] = doc.theme
 
     def show(index):

@@ -12,8 +12,6 @@ an electron-level sensor. No science here: every number comes from the engine.
 
 from __future__ import annotations
 
-import holoviews as hv
-import holoviews.plotting.bokeh  # noqa: F401  (the bokeh backend, for .opts)
 import numpy as np
 import panel as pn
 import param
@@ -23,9 +21,8 @@ from camsim_core.errors import CamsimError
 from camsim_core.optics import cutoff_frequency, diffraction_mtf
 from camsim_core.simulation.electrons import photon_transfer, system_gain
 
+from .curves import Curve, CurvesPlot, Mark
 from .safe_text import md_text
-
-hv.Store.set_current_backend("bokeh")
 from .shown import now, off_the_loop
 from .state import ExplorerState
 from .tab import TabView
@@ -67,15 +64,15 @@ def mtf_curves(f_number, pitch_m, n=200):
     return {w: (f, diffraction_mtf(f, w, f_number)) for w in WAVELENGTHS_NM}, 1.0 / (2.0 * pitch_m * 1e3)
 
 
-def _mtf_plot(data):
-    """The diffraction MTF at 450, 550 and 650 nm with the pixel's Nyquist frequency (dashed);
-    ``data`` is ``(f-number, curves, nyquist)`` from :func:`mtf_curves`."""
-    f_stop, curves, nyquist = data
-    plot = hv.Overlay([hv.Curve(fm, "Spatial frequency at the sensor (cycles/mm)", "MTF", label=f"{w:g} nm").opts(
-        color=_COLOURS[w]) for w, fm in curves.items()])
-    plot = plot * hv.VLine(nyquist).opts(color="gray", line_dash="dashed")
-    return plot.opts(frame_height=220, frame_width=360, legend_position="top_right",
-                     title=f"Diffraction MTF at f/{f_stop:g} (dashed: Nyquist)")
+def _mtf_shown(f_stop, curves, nyquist):
+    """``(curves, marks, title)`` of the diffraction-MTF plot (:meth:`CurvesPlot.update`) for the output of
+    :func:`mtf_curves` at f-number ``f_stop``: a curve per wavelength, the pixel's Nyquist frequency dashed."""
+    return ([Curve(f"{w:g} nm", _COLOURS[w], f, m) for w, (f, m) in curves.items()], [Mark(nyquist)],
+            f"Diffraction MTF at f/{f_stop:g} (dashed: Nyquist)")
+
+
+#: The photon-transfer curves' colours by sensor name (others black).
+_PTC_COLOURS = {"R": "#d03030", "G": "#30a030", "B": "#3050d0"}
 
 
 def _ptc_key(cam):
@@ -111,13 +108,18 @@ class PhysicalView(TabView):
 
     def __init__(self, state, when_shown=now, **params):
         self.table = pn.pane.Markdown("", css_classes=["camsim-physical-table"], width=380)
-        self.mtf = pn.pane.HoloViews(hv.Curve([]), css_classes=["camsim-mtf"], linked_axes=False)
-        self.ptc = pn.pane.HoloViews(hv.Curve([]), css_classes=["camsim-ptc"], linked_axes=False)
+        self.mtf_curves = CurvesPlot("Diffraction MTF", "Spatial frequency at the sensor (cycles/mm)", "MTF",
+                                     frame_width=360, frame_height=220, marks=1)
+        self.ptc_curves = CurvesPlot("Photon transfer (EMVA 1288), 10 exposures", "Mean (DN, black subtracted)",
+                                     "Temporal variance (DN²)", frame_width=360, frame_height=220,
+                                     legend_location="top_left")
+        self.mtf = pn.Column(pn.pane.Bokeh(self.mtf_curves.figure), css_classes=["camsim-mtf"], margin=0)
+        self.ptc = pn.pane.Bokeh(self.ptc_curves.figure)
         # shown and hidden as a whole (a camera in digital units has no curve: an empty plot labelled "y" was
-        # shown), as the Image quality tab's MTF: a HoloViews pane's own ``visible`` breaks its next plot
-        self.ptc_box = pn.Column(self.ptc, visible=False, margin=0)
+        # shown); the Bokeh pane's own ``visible`` would be passed to the figure
+        self.ptc_box = pn.Column(self.ptc, css_classes=["camsim-ptc"], visible=False, margin=0)
         self.note = pn.pane.Markdown("", css_classes=["camsim-ptc-note"], width=440)
-        self._mtf_key, self._mtf_pipe = None, None  # (f-number, pitch) drawn, and the plot's data stream
+        self._mtf_key = None  # (f-number, pitch) drawn
         self._ptc_key = None  # the sensor whose curve (or note) is shown
         self._ptc_held, self._ptc_making = None, None  # (key, (ptc, problem)) made off the loop; key being made
         super().__init__(state, when_shown, **params)
@@ -137,12 +139,8 @@ class PhysicalView(TabView):
         key = (float(cam.f_stop), float(cam.pixel_size[1]))
         if key != self._mtf_key:
             self._mtf_key = key
-            data = (key[0],) + mtf_curves(*key)
-            if self._mtf_pipe is None:
-                self._mtf_pipe = hv.streams.Pipe(data=data)
-                self.mtf.object = hv.DynamicMap(lambda data: _mtf_plot(data), streams=[self._mtf_pipe])
-            else:
-                self._mtf_pipe.send(data)
+            curves, marks, title = _mtf_shown(key[0], *mtf_curves(*key))
+            self.mtf_curves.update(curves, marks, title=title)
         self.update_ptc(cam)
 
     @staticmethod
@@ -195,11 +193,8 @@ class PhysicalView(TabView):
         if ptc is None:
             self.note.object = problem
             return
-        curves = [hv.Curve((ptc["mean"][:, k], ptc["variance"][:, k]), "Mean (DN, black subtracted)", "Temporal variance (DN²)",
-                           label=name).opts(color={"R": "#d03030", "G": "#30a030", "B": "#3050d0"}.get(name, "black"))
-                  for k, name in enumerate(ptc["names"])]
-        self.ptc.object = hv.Overlay(curves).opts(frame_height=220, frame_width=360, legend_position="top_left",
-                                                  title="Photon transfer (EMVA 1288), 10 exposures")
+        self.ptc_curves.update([Curve(name, _PTC_COLOURS.get(name, "black"), ptc["mean"][:, k], ptc["variance"][:, k])
+                                for k, name in enumerate(ptc["names"])])
         self.note.object = (f"Slope in the linear range = system gain K = {ptc['gain']:.4g} DN/e-; the variance falls "
                             "where the pixels saturate.")
 

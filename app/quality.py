@@ -10,21 +10,18 @@ ideal image.
 
 from __future__ import annotations
 
-import holoviews as hv
-import holoviews.plotting.bokeh  # noqa: F401  (the bokeh backend, for .opts)
 import numpy as np
 import panel as pn
 
 from camsim_core.errors import CamsimError
 from camsim_core.metrics.report import default_measures, measure_images
 
+from .curves import Curve, CurvesPlot, Mark
 from .safe_text import md_text
 from .shown import now, off_the_loop
 from .tab import TabView
 
-hv.Store.set_current_backend("bokeh")
-
-__all__ = ["QualityView", "measures_for", "channel_colours", "CHANNEL_COLOURS"]
+__all__ = ["QualityView", "measures_for", "channel_colours", "mtf_figure", "CHANNEL_COLOURS"]
 
 _HINT = "Pick the **slanted-edge** chart for the MTF, **uniform** for the SNR, **macbeth** for the patch dE."
 
@@ -42,7 +39,7 @@ def measures_for(scene_name, result):
 #: Each channel's colour in the MTF plot (the luminance black and bold); other sensors take the palette in turn.
 CHANNEL_COLOURS = {"R": "#d62728", "G": "#2ca02c", "B": "#1f77b4", "luminance": "black"}
 _PALETTE = ("#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf")
-_MTF_OPTS = dict(frame_width=420, frame_height=240, xlim=(0, 1), ylim=(0, 1.1))
+_MTF_AXES = dict(x_label="Frequency (cycles/pixel)", y_label="MTF", x_range=(0, 1), y_range=(0, 1.1))
 
 
 def channel_colours(names):
@@ -51,23 +48,26 @@ def channel_colours(names):
     return {n: CHANNEL_COLOURS.get(n) or next(others) for n in names}
 
 
-def _mtf_plot(mtf):
-    """Overlay of the MTF curves (luminance bold) with MTF50 (dashed) and Nyquist (dotted): a new plot per
-    result (a plot updated in place could not change its number of curves: the tab broke on a new chart)."""
-    if not mtf:
-        return hv.Curve([], "Frequency (cycles/pixel)", "MTF").opts(title="Slanted-edge MTF", **_MTF_OPTS)
+def mtf_figure(mtf):
+    """What the MTF plot shows of a report's ``mtf``: ``(curves, marks, title)`` for :meth:`CurvesPlot.update`.
+
+    One curve per channel (the luminance bold, black), the Nyquist frequency
+    dotted and the luminance MTF50 dashed (when the curve reaches 0.5).
+
+    Examples
+    --------
+    >>> curves, marks, title = mtf_figure({"luminance": {"frequency": [0, 0.5], "mtf": [1, 0.3], "mtf50": 0.25}})
+    >>> [(c.name, c.colour, c.width) for c in curves], [m.x for m in marks], title
+    ([('luminance', 'black', 3.0)], [0.5, 0.25], 'MTF50 0.250 cy/px (dashed)')
+    """
     colours = channel_colours(list(mtf))
-    curves = []
-    for name, v in mtf.items():
-        width = 3 if name == "luminance" else 1.5
-        curves.append(hv.Curve((v["frequency"], v["mtf"]), "Frequency (cycles/pixel)", "MTF", label=name)
-                      .opts(line_width=width, color=colours[name]))
+    curves = [Curve(name, colours[name], v["frequency"], v["mtf"], 3 if name == "luminance" else 1.5)
+              for name, v in mtf.items()]
     lum = mtf.get("luminance") or next(iter(mtf.values()))
-    marks = [hv.VLine(0.5).opts(color="gray", line_dash="dotted")]
+    marks = [Mark(0.5, "gray", "dotted")]
     if np.isfinite(lum["mtf50"]):
-        marks.append(hv.VLine(lum["mtf50"]).opts(color="black", line_dash="dashed"))
-    return hv.Overlay(curves + marks).opts(title=f"MTF50 {lum['mtf50']:.3f} cy/px (dashed)", legend_position="top_right",
-                                           **_MTF_OPTS)
+        marks.append(Mark(lum["mtf50"], "black", "dashed"))
+    return curves, marks, f"MTF50 {lum['mtf50']:.3f} cy/px (dashed)"
 
 
 def _snr_table(snr):
@@ -112,10 +112,9 @@ class QualityView(TabView):
 
     def __init__(self, state, when_shown=now, **params):
         self.report = {}
-        self.mtf_plot = pn.pane.HoloViews(_mtf_plot({}), linked_axes=False)
-        self._mtf_pipe, self._mtf_channels = None, None  # the plot's data stream, and the curves it draws
-        # shown and hidden as a whole: a HoloViews pane's own ``visible``, set after its plot was replaced, makes
-        # Panel (1.9) pass its layout parameters to the Bokeh figure, which refuses ``design`` (the tab broke)
+        self.curves = CurvesPlot("Slanted-edge MTF", **_MTF_AXES, frame_width=420, frame_height=240, marks=2)
+        self.mtf_plot = pn.pane.Bokeh(self.curves.figure)
+        # shown and hidden as a whole (the Bokeh pane's own ``visible`` would be passed to the figure)
         self.mtf = pn.Column(self.mtf_plot, css_classes=["camsim-mtf"], visible=False, margin=0)
         self.text = pn.pane.Markdown("", css_classes=["camsim-quality"], sizing_mode="stretch_width")
         self._measured = None  # (result, measures, (report, problem)) made by ``prepare`` or a session thread
@@ -190,12 +189,7 @@ class QualityView(TabView):
         self.text.object = "\n\n".join(parts)
 
     def _plot_mtf(self, mtf):
-        """Draw ``mtf``: the same curves as the plot has are sent as new data (its Bokeh figure kept, 60-80 ms
-        on the event loop); other curves make a new plot (130-210 ms, 400 ms on a busy server: the number of
-        curves of a plot drawn in place cannot change, and the tab broke when it did)."""
-        channels = tuple(mtf)
-        if self._mtf_pipe is not None and channels == self._mtf_channels:
-            self._mtf_pipe.send(mtf)
-            return
-        self._mtf_pipe, self._mtf_channels = hv.streams.Pipe(data=mtf), channels
-        self.mtf_plot.object = hv.DynamicMap(lambda data: _mtf_plot(data), streams=[self._mtf_pipe])
+        """Draw ``mtf`` as new data for the plot's figure (made once: a new number of curves, a camera with
+        other sensors, shows or hides curves of the same figure)."""
+        curves, marks, title = mtf_figure(mtf)
+        self.curves.update(curves, marks, title=title)

@@ -18,7 +18,7 @@ MISSING_APP_MESSAGE = ("the explorer is not installed ({missing} is missing): "
                        'pip install "camsim-spectral[app]" installs it')
 
 #: Top-level modules whose absence means the ``app`` extra is missing (rather than a fault of the explorer).
-_APP_MODULES = ("camsim_explorer", "panel", "bokeh", "holoviews", "param", "tornado")
+_APP_MODULES = ("camsim_explorer", "panel", "bokeh", "param", "tornado")
 
 
 def register(subparsers):

@@ -29,8 +29,8 @@ def test_parameter_table_names_units():
 def test_view_draws_photon_transfer_for_an_electron_sensor_and_explains_otherwise():
     state = ExplorerState(camera="imx174", distance=3.32, exposure=0.005)
     view = PhysicalView(state)
-    overlay = view.ptc.object
-    assert len(overlay) == 3 and "system gain" in view.note.object and view.ptc_box.visible
+    assert list(view.ptc_curves.shown()) == ["R", "G", "B"]
+    assert "system gain" in view.note.object and view.ptc_box.visible
     from bokeh.document import Document
 
     root = view.mtf.get_root(Document())  # the MTF plot as the page has it: the same figure gets new data
@@ -61,7 +61,7 @@ def test_the_photon_transfer_curve_is_made_off_the_loop_and_only_for_a_new_senso
     state.recompute()
     settle(state, outcomes)
     assert made and loop not in made, made
-    assert "system gain K" in view.note.object and len(view.ptc.object) == 3
+    assert "system gain K" in view.note.object and list(view.ptc_curves.shown()) == ["R", "G", "B"]
     made.clear()
     state.seed = 7  # the same sensor: the same curve
     settle(state, outcomes)

@@ -263,8 +263,7 @@ def test_presentation_mode_makes_every_control_and_plot_text_readable_at_1920(br
                                and all(px(v) < 18 for _, v, _ in p) and p, timeout=15,
                                what=f"the {tab} tab's plots at their normal sizes")
             before = {i for *_, i in shown}
-        # and on again with the Optics & sensor tab open: its plots (HoloViews, which copies a theme's sizes into
-        # a plot when it makes it) in large text at once
+        # and on again with the Optics & sensor tab open: its plots in large text at once
         page.page.locator(".w-present button").first.click()
         wait_until(lambda: (p := page.page.evaluate(_SHOWN_PLOT_TEXT_SIZES)) and all(px(v) >= 18 for _, v, _ in p),
                    timeout=15, what="the Optics & sensor tab's plots in large text again")
