@@ -114,3 +114,23 @@ def test_the_package_and_its_command_line_help_load_no_plotting_library():
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=180)
     assert out.returncode == 0, out.stderr[-3000:]
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_the_explorer_draws_with_bokeh_alone():
+    """One plotting layer (issue 40): every module of the explorer imported in a fresh interpreter (built as a
+    page would be) loads no HoloViews; the ``app`` extra does not ask for it."""
+    import pkgutil
+
+    import camsim_explorer
+
+    names = [info.name for info in pkgutil.walk_packages(camsim_explorer.__path__, "camsim_explorer.")]
+    assert {"camsim_explorer.quality", "camsim_explorer.physical", "camsim_explorer.experiments"} <= set(names)
+    code = ("import importlib, sys\n"
+            f"for name in {names!r}:\n    importlib.import_module(name)\n"
+            "from camsim_explorer.main import create_app\n"
+            "create_app()\n"
+            "print(sorted(m for m in sys.modules if m.partition('.')[0] == 'holoviews'))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=180)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert out.stdout.strip().splitlines()[-1] == "[]", out.stdout[-2000:]
+    assert "holoviews" not in (ROOT / "pyproject.toml").read_text().lower()
