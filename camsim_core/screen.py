@@ -11,8 +11,12 @@ Hand-written: the image is copied once into a zero-padded buffer of whole
 blocks, the k x k strided views of it are summed, and each sum is divided by
 the pixels its block really holds (the last row and column of blocks may be
 partial). That reads the image once; ``numpy.add.reduceat`` over the two
-axes of an (H, W, 4) picture took 7x longer. A view needs exactly this and
-nothing of an image library.
+axes of an (H, W, 4) picture took 7x longer. An 8-bit picture (the
+explorer's packed RGBA views) is summed by a compiled loop over its blocks
+instead (:func:`_block_means_u8`), without the float32 copy of the whole
+picture: the same numbers (whole sums divided in float32) at a fifth of the
+time (a 860 x 1295 RGBA view: ~28 ms -> ~6 ms). A view needs exactly this
+and nothing of an image library.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ import math
 
 import numpy as np
 
+from ._compiled import compiled
 from .errors import ParameterError
 
 __all__ = ["to_screen", "block_size"]
@@ -96,6 +101,11 @@ def to_screen(data, max_shape=(1080, 1920), region=None):
     if block == 1:
         return part.astype(dtype, copy=True), 1
     ny, nx = math.ceil(height / block), math.ceil(width / block)
+    if part.dtype == np.uint8:  # whole sums divided in float32, as below, in one pass over the picture
+        pixels = part.reshape(part.shape[:2] + (-1,))
+        out = np.empty((ny, nx, pixels.shape[2]), np.float32)
+        _block_means_u8_kernel()(pixels, block, out)
+        return out.reshape((ny, nx) + part.shape[2:]), block
     padded = np.zeros((ny * block, nx * block) + part.shape[2:], dtype)
     padded[:height, :width] = part
     sums = padded[0::block, 0::block].copy()
@@ -107,3 +117,28 @@ def to_screen(data, max_shape=(1080, 1920), region=None):
               * np.minimum(block, width - np.arange(0, width, block))[None, :]).astype(dtype)
     sums /= counts[:, :, None] if sums.ndim == 3 else counts
     return sums, block
+
+
+def _block_means_u8(pixels, block, out):
+    """out[i, j, c] = mean of ``pixels[i b : (i + 1) b, j b : (j + 1) b, c]`` (b = ``block``; fewer pixels at
+    the last row and column of blocks): the integer sum divided by the pixel count in float32, as
+    :func:`to_screen`'s float path computes it. ``pixels`` (H, W, C) uint8, ``out`` (ny, nx, C) float32.
+    Reads the picture row by row, a row of block sums at a time. Compiled by numba (:func:`_block_means_u8_kernel`)."""
+    h, w, c = pixels.shape
+    ny, nx = out.shape[0], out.shape[1]
+    sums = np.zeros((nx, c), np.int64)
+    for i in range(ny):
+        y0, y1 = i * block, min(h, (i + 1) * block)
+        sums[:] = 0
+        for y in range(y0, y1):
+            for j in range(nx):
+                for x in range(j * block, min(w, (j + 1) * block)):
+                    for k in range(c):
+                        sums[j, k] += pixels[y, x, k]
+        for j in range(nx):
+            n = np.float32((y1 - y0) * (min(w, (j + 1) * block) - j * block))
+            for k in range(c):
+                out[i, j, k] = np.float32(sums[j, k]) / n
+
+
+_block_means_u8_kernel = compiled(_block_means_u8)

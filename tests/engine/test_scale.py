@@ -592,3 +592,27 @@ def test_to_screen_block_means():
         to_screen(img, region=(0, 0, 0, 5))
     with pytest.raises(ParameterError, match="data"):
         to_screen(np.zeros(5))
+
+
+@pytest.mark.parametrize("shape, max_shape, region", [((7, 9, 4), (3, 4), None), ((7, 9), (2, 2), None),
+                                                      ((50, 31, 3), (6, 40), (3, 5, 40, 20)),
+                                                      ((1, 1, 4), (1, 1), None), ((30, 20, 1), (1, 1), None)])
+def test_to_screen_of_an_8_bit_picture_is_each_blocks_exact_mean(shape, max_shape, region):
+    """8-bit pictures (the explorer's packed RGBA views) take a compiled path: each view pixel is the sum of its
+    block's values (partial blocks at the edges included) over their count, divided in float32, checked here
+    block by block with integer sums."""
+    from camsim_core.screen import to_screen
+
+    img = np.random.default_rng(sum(shape)).integers(0, 256, shape).astype(np.uint8)
+    view, block = to_screen(img, max_shape, region)
+    top, left, height, width = region or (0, 0) + shape[:2]
+    part = img[top : top + height, left : left + width]
+    assert view.dtype == np.float32 and view.shape[2:] == shape[2:]
+    assert view.shape[:2] == (-(-part.shape[0] // block), -(-part.shape[1] // block))
+    assert view.shape[0] <= max_shape[0] and view.shape[1] <= max_shape[1]
+    for i in range(view.shape[0]):
+        for j in range(view.shape[1]):
+            cell = part[i * block : (i + 1) * block, j * block : (j + 1) * block].astype(np.int64)
+            n = cell.shape[0] * cell.shape[1]
+            expected = np.float32(cell.sum(axis=(0, 1))) / np.float32(n)
+            assert np.array_equal(view[i, j], expected), (i, j)
