@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._parallel import run_blocks
 from ..errors import ParameterError
 
 __all__ = ["slanted_edge_mtf", "mtf50", "mtf_at", "edge_angle", "edge_mtf", "EdgeMTF", "luminance_weights",
@@ -379,8 +380,18 @@ def edge_mtf(image, *, oversampling=4, max_frequency=1.0, half_width=EDGE_HALF_W
         names = tuple(str(i) for i in range(data.shape[2]))
     planes = {n: data[:, :, i] for i, n in enumerate(names)}
     planes["luminance"] = data @ luminance_weights(image) if data.shape[2] > 1 else data[:, :, 0]
+    # one plane a block on the machine's cores (each plane's MTF is its own): a frame-sized chart's four
+    # planes took 0.28 s in turn
+    items = list(planes.items())
+    curves = [None] * len(items)
+
+    def measure(start, stop):
+        for i in range(start, stop):
+            curves[i] = slanted_edge_mtf(items[i][1], oversampling=oversampling, max_frequency=max_frequency,
+                                         half_width=half_width)
+
+    run_blocks(measure, range(len(items) + 1), values=data.size)
     out = EdgeMTF()
-    for name, plane in planes.items():
-        f, m = slanted_edge_mtf(plane, oversampling=oversampling, max_frequency=max_frequency, half_width=half_width)
+    for (name, _), (f, m) in zip(items, curves):
         out[name] = {"frequency": f, "mtf": m, "mtf50": mtf50(f, m), "mtf_nyquist": mtf_at(f, m, NYQUIST)}
     return out

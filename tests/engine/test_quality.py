@@ -115,6 +115,17 @@ def test_psnr_and_ssim_against_their_definitions(rng):
         psnr(img[:10], ref)
 
 
+@pytest.mark.parametrize("shape", [(900, 1300, 3), (60, 70, 4)])
+def test_ssim_of_a_colour_image_is_scikit_images_channel_average(rng, shape):
+    """A large colour image's channels are measured on the machine's cores (one each): the number is still
+    scikit-image's own SSIM with ``channel_axis``, to the last bit."""
+    from skimage.metrics import structural_similarity
+
+    ref = rng.uniform(0, 255, size=shape).round()
+    img = ref + rng.normal(0, 4.0, size=shape)
+    assert ssim(img, ref, data_range=255) == structural_similarity(ref, img, data_range=255, channel_axis=2)
+
+
 def test_psnr_of_identical_images_is_infinite_without_a_warning(rng):
     """A design compared with itself (the explorer's A/B of one pinned design) gives PSNR inf, and
     writes no divide-by-zero warning to the server's log."""
