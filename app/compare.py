@@ -47,12 +47,13 @@ from camsim_core.review.design import (DESIGN_DEFAULTS, MAX_NAME, MAX_PINNED, QU
                                        check_pinned, differing_parameters, evaluate_design, quality_measures,
                                        result_from_pipeline)
 from camsim_core.review.difference import ab_difference
-from camsim_core.review.report import DESIGN_COLOURS, design_colours, quality_cell, report_html, shared_scale
+from camsim_core.review.report import (DESIGN_COLOURS, design_colours, map_top, quality_cell, report_html, scale_top,
+                                      shared_scale)
 from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
 
 from .curves import CurvesPlot
 from .safe_text import PlainText, html_text, md_text
-from .shown import now
+from .shown import now, off_the_loop
 from . import state as state_module
 from .state import short_repr
 from .views import ASPECT_TOLERANCE, _rgb_hover, fit_ranges, monitor_rgba, once, rgba32, screen_part
@@ -212,11 +213,43 @@ class ImageView:
 
     def show(self, image, title):
         """Show ``image`` (bottom row first: packed RGBA, or values for the mapper) under ``title``."""
-        view, _ = screen_part(image, state_module.LIMITS.max_view_side)  # the server's --max-view-side
-        h, w = image.shape[:2]
+        self.show_view(screen_part(image, state_module.LIMITS.max_view_side)[0], image.shape[:2], title)
+
+    def show_view(self, view, shape, title):
+        """Show ``view``, what :func:`screen_part` sends of an image of ``shape`` (h, w), under ``title``."""
+        h, w = shape
         self.source.data = dict(image=[view], x=[0.0], y=[0.0], dw=[1.0], dh=[h / w])
         if self.figure.title.text != title:
             self.figure.title.text = title
+
+
+def rendered_view(rendered):
+    """What a rendered image's view sends: ``(view, (h, w))``, its packed RGBA (bottom row first) as block
+    means when larger than ``--max-view-side`` (:func:`screen_part`)."""
+    rendered = np.asarray(getattr(rendered, "data", rendered))
+    return screen_part(monitor_rgba(rendered), state_module.LIMITS.max_view_side)[0], rendered.shape[:2]
+
+
+def _ab_shown(a, b, metric):
+    """The A/B difference of designs ``a`` and ``b`` and what its two views show (any thread): ``(ab, dE view,
+    wins view, colour scale top, aspect)``, each view as :meth:`ImageView.show_view` takes it; a refusal's
+    message (str) when the engine refuses the pair. On a frame-sized chart ~0.2 s: made off the event loop."""
+    try:
+        ab = ab_difference(a, b, metric)
+    except CamsimError as exc:
+        return str(exc)
+    tie = a.error_map(metric) == b.error_map(metric)
+    idx = np.where(tie, 2, np.where(ab["a_wins"], 0, 1))
+    wins = rgba32(_WIN_COLOURS[idx])
+    return (ab, de_view(ab["delta_e"]), (screen_part(wins, state_module.LIMITS.max_view_side)[0], wins.shape[:2]),
+            shared_scale([ab["delta_e"]]), _aspect(ab["delta_e"]))
+
+
+def de_view(de):
+    """What a dE map's view sends: ``(view, (h, w))``, its values as float32, bottom row first, as block means
+    when larger than ``--max-view-side``."""
+    flipped = np.ascontiguousarray(np.asarray(de, np.float32)[::-1])
+    return screen_part(flipped, state_module.LIMITS.max_view_side)[0], flipped.shape[:2]
 
 
 class SweepPlot:
@@ -281,9 +314,24 @@ class HistogramPlot:
         self.legend = Legend(items=items, location="top_right")
         self.figure.add_layout(self.legend)
 
+    @classmethod
+    def stats(cls, values):
+        """What the plot shows of one dE map: ``(fraction of pixels per bin, mean, median)`` of its finite
+        values (values above 30 in the last bin), or None when it has none."""
+        v = np.asarray(values, float)
+        v = v[np.isfinite(v)]
+        if not v.size:
+            return None
+        counts, _ = np.histogram(np.clip(v, 0, 30), cls.EDGES)
+        return counts / v.size, float(np.mean(v)), float(np.median(v))
+
     def update(self, items, metric, colours=None):
         """Show ``items``, a list of (name, dE map), for ``metric`` ("CIELAB" or "S-CIELAB"), each design in
         its colour of ``colours`` (name -> colour; by position when not given)."""
+        self.show([(name, self.stats(values)) for name, values in items], metric, colours)
+
+    def show(self, items, metric, colours=None):
+        """:meth:`update` with each map's :meth:`stats` at hand: ``items`` a list of (name, stats)."""
         self.figure.title.text = f"Overlaid {metric} dE histograms (mean solid, median dashed)"
         colours = colours or design_colours([name for name, _ in items])
         for i in range(SLOTS):
@@ -292,15 +340,11 @@ class HistogramPlot:
                 if self.lines[i].glyph.line_color != colour:
                     self.lines[i].glyph.line_color = colour
                     self.means[i].line_color = self.medians[i].line_color = colour
-            v = None
-            if i < len(items):
-                v = np.asarray(items[i][1], float)
-                v = v[np.isfinite(v)]
-            shown = v is not None and v.size > 0
+            stats = items[i][1] if i < len(items) else None
+            shown = stats is not None
             if shown:
-                counts, _ = np.histogram(np.clip(v, 0, 30), self.EDGES)
-                mean, median = float(np.mean(v)), float(np.median(v))
-                self.sources[i].data = {"x": self.EDGES[:-1], "y": counts / v.size}
+                fractions, mean, median = stats
+                self.sources[i].data = {"x": self.EDGES[:-1], "y": fractions}
                 self.means[i].location, self.medians[i].location = mean, median
                 self.legend.items[i].label = {"value": f"{items[i][0]}: mean {mean:.2f}, median {median:.2f}"}
             else:
@@ -334,6 +378,11 @@ class CompareView:
         self._built = False  # the plots are made when there is something to compare (a light page until then)
         self._prebuilt = None  # the plots made ahead by a worker thread (a dict for _ensure_plots)
         self._started = self._updated = 0.0  # when the designs computing began, when the tab was last updated
+        # what the views show of each design's arrays, made ahead in the thread that computed them (the event loop
+        # then only sends it): {(kind, id(array)): (array, value)}, kept for the designs shown
+        self._display = {}
+        self._when_shown = when_shown
+        state.preparers.append(self._prepare_live)
         self._build_widgets()
         state.param.watch(self._on_pinned, ["pinned"])
         refresh, request_update = when_shown(self.refresh), when_shown(self._request_update)
@@ -550,6 +599,7 @@ class CompareView:
             params = {**p["params"], **self._shared()}
             try:
                 result = evaluate_design(params, p["name"], scene=scene, pipeline=pipeline)
+                self._prepare_design(result, self.state.metric)
                 self.store.put(key, params, result)
                 self.errors.pop(p["name"], None)
                 self._prebuild(_aspect(result.rendered))  # once: the plots the first update will show
@@ -613,11 +663,14 @@ class CompareView:
 
     def live_result(self):
         """The live design as a DesignResult (the explorer's own result; made once per result)."""
-        res = self.state.result
+        return self._live_of(self.state.result, self.state.metric)
+
+    def _live_of(self, res, metric):
         if res is None:
             return None
-        if self._live[0] is res and self._live[1] == self.state.metric:
-            return self._live[2]
+        held = self._live
+        if held[0] is res and held[1] == metric:
+            return held[2]
         try:
             # without the image-quality measures (about 45 ms on the default scene): the live design keeps its
             # speed; a pinned design has them (computed once, in the background)
@@ -625,8 +678,54 @@ class CompareView:
                                         quality=False)
         except CamsimError:
             live = None
-        self._live = (res, self.state.metric, live)
+        self._live = (res, metric, live)
         return live
+
+    # -- what the views show, made ahead --------------------------------------------
+    #: How each kind of display product is made from its array.
+    _MAKERS = {"render": rendered_view, "de": de_view, "hist": HistogramPlot.stats, "top": map_top}
+
+    def _prepared(self, kind, array):
+        """``_MAKERS[kind](array)``, made once per array (identity): by :meth:`_prepare_design` in the thread that
+        computed the design, or here."""
+        key = (kind, id(array))
+        held = self._display.get(key)
+        if held is not None and held[0] is array:
+            return held[1]
+        value = self._MAKERS[kind](array)
+        self._display[key] = (array, value)
+        return value
+
+    def _de_map(self, r, metric):
+        de = r.error_map(metric)
+        return de if de is not None else r.delta_e
+
+    def _prepare_design(self, r, metric):
+        """Everything the views show of design ``r`` for ``metric``, made now (any thread): its image views'
+        data, its histogram and its part of the colour scale. A 1.1-megapixel chart's took the event loop
+        ~60-100 ms a design at each update."""
+        de = self._de_map(r, metric)
+        for kind, array in (("render", r.rendered), ("de", de), ("hist", de), ("top", de)):
+            if array is not None and np.size(array):
+                self._prepared(kind, array)
+
+    def _prepare_live(self, res):
+        """In the session's computing thread, with a new result (``ExplorerState.preparers``): the live design
+        and what the tab shows of it, when the tab shows designs (the event loop then only sends them)."""
+        if res is None or res.raw is None or not (self._built or self.state.pinned):
+            return
+        if not getattr(self._when_shown, "shown", True):
+            return
+        metric = self.state.metric
+        live = self._live_of(res, metric)
+        if live is not None:
+            self._prepare_design(live, metric)
+
+    def _forget_display(self, results, metric):
+        """Drop what is held for arrays no longer shown."""
+        kept = {id(a) for r in results for a in (r.rendered, self._de_map(r, metric))}
+        for key in [k for k in self._display if k[1] not in kept]:
+            self._display.pop(key, None)
 
     def designs(self):
         """The DesignResults compared: the live design (unless equal to a pinned one), then the pinned ones."""
@@ -648,7 +747,7 @@ class CompareView:
         results = self.designs()
         metric = self.state.metric
         maps = [r.error_map(metric) for r in results if r.error_map(metric) is not None]
-        top = shared_scale(maps) if maps else 20.0
+        top = scale_top([self._prepared("top", m) for m in maps if np.size(m)]) if maps else 20.0
         self.table.object = self._table(results)
         if not (self._built or self.state.pinned):  # only the live design: its table, no plots yet
             self.views[:] = [self.table]
@@ -669,18 +768,17 @@ class CompareView:
                     aspect = _aspect(r.rendered)
                     self._fit_view(self.render_views[i], aspect)
                     self.de_views[i].fit(aspect)
-                    de = r.error_map(metric)
-                    de = de if de is not None else r.delta_e
+                    de = self._de_map(r, metric)
                     # a live move re-sends the live design's images only; the arrays themselves are compared
                     # (identity), never a reused id
                     old = self._shown[i] or (None, None, None)
                     if old[1] is not r.rendered:
-                        self.render_views[i].show(monitor_rgba(r.rendered), f"{r.name}: rendered")
+                        self.render_views[i].show_view(*self._prepared("render", r.rendered), f"{r.name}: rendered")
                     elif old[0] != r.name:
                         self.render_views[i].figure.title.text = f"{r.name}: rendered"
                     label = f"{r.name}: {metric if r.error_map(metric) is not None else 'CIELAB'} dE"
                     if old[2] is not de:
-                        self.de_views[i].show(np.ascontiguousarray(np.asarray(de, np.float32)[::-1]), label)
+                        self.de_views[i].show_view(*self._prepared("de", de), label)
                     elif self.de_views[i].figure.title.text != label:
                         self.de_views[i].figure.title.text = label
                     self._shown[i] = (r.name, r.rendered, de)
@@ -688,8 +786,9 @@ class CompareView:
                     self._shown[i] = None
                 if self.slots[i].visible != (i < len(results)):
                     self.slots[i].visible = i < len(results)
-            self.histogram.update([(r.name, r.error_map(metric) if r.error_map(metric) is not None else r.delta_e)
-                                   for r in results], metric, self.colours(results))
+            self.histogram.show([(r.name, self._prepared("hist", self._de_map(r, metric))) for r in results], metric,
+                                self.colours(results))
+        self._forget_display(results, metric)
         names = [r.name for r in results]
         a, b = self.a_select.value, self.b_select.value
         self.a_select.options = names
@@ -740,28 +839,32 @@ class CompareView:
         metric = self.state.metric if (a.error_map(self.state.metric) is not None and
                                        b.error_map(self.state.metric) is not None) else "CIELAB"
         inputs = (a.name, b.name, metric, a.rendered, b.rendered, a.error_map(metric), b.error_map(metric))
-        if self._ab_inputs is not None and self.ab is not None and inputs[:3] == self._ab_inputs[:3] and all(
+        if self._ab_inputs is not None and inputs[:3] == self._ab_inputs[:3] and all(
                 x is y for x, y in zip(inputs[3:], self._ab_inputs[3:])):
-            return  # the same two images: nothing to recompute (a live move that A and B do not show)
+            return  # the same two images, shown or being made: nothing to recompute (a move A and B do not show)
         self.ab, self._ab_inputs = None, inputs
-        try:
-            ab = ab_difference(a, b, metric)
-        except CamsimError as exc:
-            self.ab_text.object = f"**A/B not available:** {md_text(exc)}"
+
+        def made(outcome):  # on the page's next tick: shown unless another pair was chosen meanwhile
+            if self._ab_inputs is inputs:
+                self._show_ab(a, b, metric, outcome)
+
+        if off_the_loop(lambda: _ab_shown(a, b, metric), made, lambda exc: f"{type(exc).__name__}: {exc}"):
+            self.ab_text.object = "Computing the A/B difference..."
+
+    def _show_ab(self, a, b, metric, outcome):
+        """Show an A/B difference made by :func:`_ab_shown` (or why there is none)."""
+        if isinstance(outcome, str):
+            self.ab_text.object = f"**A/B not available:** {md_text(outcome)}"
             return
+        ab, de, wins, top, aspect = outcome
         self.ab = (a.name, b.name, ab)
-        tie = a.error_map(metric) == b.error_map(metric)
-        idx = np.where(tie, 2, np.where(ab["a_wins"], 0, 1))
-        top = shared_scale([ab["delta_e"]])
-        aspect = _aspect(ab["delta_e"])
         with pn.io.hold(self._server_doc()):  # after the plots, if this update made them
             self._fit_view(self.ab_views[0], aspect)
             self.ab_views[1].fit(aspect)
             if self.ab_mapper.high != top:
                 self.ab_mapper.high = top
-            self.ab_views[0].show(np.ascontiguousarray(np.asarray(ab["delta_e"], np.float32)[::-1]),
-                                  "A/B: dE between the renderings")
-            self.ab_views[1].show(rgba32(_WIN_COLOURS[idx]), "closer to ideal: A blue, B orange")
+            self.ab_views[0].show_view(*de, "A/B: dE between the renderings")
+            self.ab_views[1].show_view(*wins, "closer to ideal: A blue, B orange")
         m = ab["measures"]
         a_name, b_name = md_text(a.name), md_text(b.name)
         self.ab_text.object = (f"dE\\*ab between **{a_name}** and **{b_name}**: mean {m['mean']:.2f}, median "

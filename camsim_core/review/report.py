@@ -31,7 +31,7 @@ from ..errors import ParameterError
 from .design import DESIGN_PARAMETERS, QUALITY_DIGITS, QUALITY_LABELS, differing_parameters
 from .sweep import SWEEP_PARAMETERS
 
-__all__ = ["report_html", "write_report", "shared_scale", "png_data_uri", "colour_map", "quality_cell", "design_colours"]
+__all__ = ["report_html", "write_report", "shared_scale", "map_top", "scale_top", "png_data_uri", "colour_map", "quality_cell", "design_colours"]
 
 #: Colours of designs in plots (matplotlib's tab10, first five).
 DESIGN_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd")
@@ -40,7 +40,22 @@ _SKIP = ("wavelength", "metric")
 
 def shared_scale(maps, percentile=99.0):
     """Top of one colour scale for several dE maps: the largest ``percentile`` over all, rounded up to 5 (min 5)."""
-    tops = [float(np.nanpercentile(m, percentile)) for m in maps if m is not None and np.size(m)]
+    return scale_top([map_top(m, percentile) for m in maps if m is not None and np.size(m)])
+
+
+def map_top(values, percentile=99.0):
+    """One dE map's part of :func:`shared_scale`: its ``percentile`` (NaN ignored)."""
+    return float(np.nanpercentile(values, percentile))
+
+
+def scale_top(tops):
+    """:func:`shared_scale` from the maps' :func:`map_top` values: the largest, rounded up to 5 (min 5).
+
+    Examples
+    --------
+    >>> scale_top([3.2, 11.0]), scale_top([])
+    (15.0, 5.0)
+    """
     top = max(tops, default=0.0)
     return float(max(5.0, 5.0 * np.ceil(top / 5.0)))
 

@@ -184,13 +184,13 @@ def test_the_histogram_changes_in_one_held_batch(monkeypatch):
 
     doc = Document()
     holds = []
-    real = module.HistogramPlot.update
+    real = module.HistogramPlot.show
 
     def spy(self, *args, **kwargs):
         holds.append(doc.callbacks.hold_value)
         return real(self, *args, **kwargs)
 
-    monkeypatch.setattr(module.HistogramPlot, "update", spy)
+    monkeypatch.setattr(module.HistogramPlot, "show", spy)
     with set_curdoc(doc):
         state = ExplorerState()
         view = CompareView(state)
@@ -299,3 +299,30 @@ def test_the_comparisons_status_shows_only_while_its_box_is_ticked():
     assert view.status.visible is True
     view.show_status.value = False
     assert view.status.visible is False
+
+
+def test_a_live_move_sends_views_made_in_the_computing_thread(monkeypatch):
+    """With designs pinned, what the tab shows of a new live result (its image views' data, histogram and part
+    of the colour scale) is made in the session's computing thread with the result; the event loop only sends
+    it (a frame-sized chart's took the loop ~60-100 ms a design at each update)."""
+    import threading
+
+    from served_state import served, settle
+
+    loop = threading.get_ident()
+    state = ExplorerState(start=False)
+    outcomes = served(state)
+    view = CompareView(state)
+    state.recompute()
+    settle(state, outcomes)
+    assert view.pin("DCS-200")
+    made = []
+    for kind, fn in list(CompareView._MAKERS.items()):
+        monkeypatch.setitem(CompareView._MAKERS, kind,
+                            lambda a, fn=fn, kind=kind: made.append((kind, threading.get_ident())) or fn(a))
+    state.noise_sigma = 3.0
+    settle(state, outcomes)
+    live = view.designs()[0]
+    assert live.params["noise_sigma"] == 3.0 and view._shown[0][1] is live.rendered
+    assert {kind for kind, _ in made} == {"render", "de", "hist", "top"}, made
+    assert all(thread != loop for _, thread in made), made
