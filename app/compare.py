@@ -396,39 +396,39 @@ class CompareView:
     # -- widgets ---------------------------------------------------------------
     def _build_widgets(self):
         w = pn.widgets
-        self.name_input = w.TextInput(name="Name of the pinned design", placeholder="the camera's name",
+        self.name_input = w.TextInput(label="Name of the pinned design", placeholder="the camera's name",
                                       css_classes=["w-pin-name"], width=220)
-        self.pin_button = w.Button(name="Pin this design", button_type="primary", css_classes=["w-pin"], width=140)
+        self.pin_button = w.Button(label="Pin this design", color="primary", css_classes=["w-pin"], width=140)
         self.pin_button.on_click(lambda e: self.pin(self.name_input.value))
-        self.pinned_select = w.Select(name="Pinned design", options=[], css_classes=["w-pinned"], width=200)
-        self.rename_input = w.TextInput(name="New name", css_classes=["w-rename"], width=180)
-        self.rename_button = w.Button(name="Rename", css_classes=["w-rename-button"], width=90)
+        self.pinned_select = w.Select(label="Pinned design", options=[], css_classes=["w-pinned"], width=200)
+        self.rename_input = w.TextInput(label="New name", css_classes=["w-rename"], width=180)
+        self.rename_button = w.Button(label="Rename", css_classes=["w-rename-button"], width=90)
         self.rename_button.on_click(lambda e: self.rename(self.pinned_select.value, self.rename_input.value))
-        self.unpin_button = w.Button(name="Unpin", css_classes=["w-unpin"], width=90)
+        self.unpin_button = w.Button(label="Unpin", css_classes=["w-unpin"], width=90)
         self.unpin_button.on_click(lambda e: self.unpin(self.pinned_select.value))
         self.message = pn.pane.Markdown("", css_classes=["camsim-compare-message"], sizing_mode="stretch_width")
         # always in the page, empty when nothing is computed: a change of its visibility made the browser lay the
         # whole tab out again (0.3-0.45 s with pinned designs shown, twice a pin), a change of its value does not
-        self.progress = pn.indicators.Progress(name="designs", value=0, max=1, width=300,
+        self.progress = pn.indicators.Progress(label="designs", value=0, max=1, width=300,
                                                css_classes=["camsim-compare-progress"], stylesheets=[_EMPTY_BAR_HIDDEN])
         self.table = pn.pane.HTML("", css_classes=["camsim-compare-table"], sizing_mode="stretch_width")
         self.status = PlainText("", css_classes=["camsim-compare-status"], sizing_mode="stretch_width",
                                 styles={"font-size": "10px", "white-space": "pre-wrap", "word-break": "break-all"},
                                 stylesheets=["pre { white-space: pre-wrap; word-break: break-all; }"])
-        self.show_status = w.Checkbox(name="Show the comparison's status (JSON, for scripts)", value=False,
+        self.show_status = w.Checkbox(label="Show the comparison's status (JSON, for scripts)", value=False,
                                       css_classes=["w-compare-status"])
         self.status.visible = self.show_status  # a reference: shown while the box is ticked
-        self.a_select = w.Select(name="A", options=[], css_classes=["w-ab-a"], width=180)
-        self.b_select = w.Select(name="B", options=[], css_classes=["w-ab-b"], width=180)
+        self.a_select = w.Select(label="A", options=[], css_classes=["w-ab-a"], width=180)
+        self.b_select = w.Select(label="B", options=[], css_classes=["w-ab-b"], width=180)
         self.a_select.param.watch(lambda e: self.update_ab(), "value")
         self.b_select.param.watch(lambda e: self.update_ab(), "value")
         self.ab_text = pn.pane.Markdown("", css_classes=["camsim-ab-text"], sizing_mode="stretch_width")
-        self.sweep_parameter = w.Select(name="Sweep parameter", options=list(SWEEP_PARAMETERS), value="noise_sigma",
+        self.sweep_parameter = w.Select(label="Sweep parameter", options=list(SWEEP_PARAMETERS), value="noise_sigma",
                                         css_classes=["w-sweep-parameter"], width=200)
-        self.sweep_values = w.TextInput(name="Values", value="0, 2, 4, 6, 8", css_classes=["w-sweep-values"], width=220)
-        self.sweep_button = w.Button(name="Run sweep", button_type="primary", css_classes=["w-sweep-run"], width=120)
+        self.sweep_values = w.TextInput(label="Values", value="0, 2, 4, 6, 8", css_classes=["w-sweep-values"], width=220)
+        self.sweep_button = w.Button(label="Run sweep", color="primary", css_classes=["w-sweep-run"], width=120)
         self.sweep_button.on_click(lambda e: self.request_sweep(self.sweep_parameter.value, self.sweep_values.value))
-        self.sweep_progress = pn.indicators.Progress(name="sweep", value=0, max=1, width=300,
+        self.sweep_progress = pn.indicators.Progress(label="sweep", value=0, max=1, width=300,
                                                      css_classes=["camsim-sweep-progress"], stylesheets=[_EMPTY_BAR_HIDDEN])
         self.sweep_message = pn.pane.Markdown("Pin designs, choose a parameter and values, run: one curve per design. "
                                               "Click a point to load that configuration.",
@@ -436,7 +436,7 @@ class CompareView:
         self.views = pn.Column(sizing_mode="stretch_width")  # the plots, made on first use
         self.sweep_area = pn.Column()
         self.download = w.FileDownload(callback=self.report_bytes, filename="camsim-report.html",
-                                       label="Download the report (HTML)", button_type="success",
+                                       label="Download the report (HTML)", color="success",
                                        css_classes=["w-report"], width=260)
 
     def _ensure_plots(self, aspect=None):

@@ -80,9 +80,9 @@ class ExperimentsView:
 
     def __init__(self, run):
         self.run = run
-        self.alphas = pn.widgets.TextInput(name="alphas", value="0, 0.5, 1", css_classes=["w-exp-alphas"], width=200)
-        self.sigmas = pn.widgets.TextInput(name="noise sigmas", value="0, 5", css_classes=["w-exp-sigmas"], width=200)
-        self.button = pn.widgets.Button(name="Run small sweep", button_type="primary", css_classes=["w-exp-run"])
+        self.alphas = pn.widgets.TextInput(label="alphas", value="0, 0.5, 1", css_classes=["w-exp-alphas"], width=200)
+        self.sigmas = pn.widgets.TextInput(label="noise sigmas", value="0, 5", css_classes=["w-exp-sigmas"], width=200)
+        self.button = pn.widgets.Button(label="Run small sweep", color="primary", css_classes=["w-exp-run"])
         self.button.on_click(self._start)
         self.message = pn.pane.Markdown(
             "A small version of Figure 1.14 (one seed, cacaphony290, no mosaic): cameras "

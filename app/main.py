@@ -238,7 +238,7 @@ def _bind(widget, state, name):
 
 def _number(cls, state, name, css, label, **kw):
     """A numeric widget without client-side limits (the state checks them and says why)."""
-    return _bind(cls(name=label, value=getattr(state, name), css_classes=[css], sizing_mode="stretch_width", **kw),
+    return _bind(cls(label=label, value=getattr(state, name), css_classes=[css], sizing_mode="stretch_width", **kw),
                  state, name)
 
 
@@ -249,13 +249,13 @@ def _slider_number(state, name, css, label, start, end, step):
 
 
 def _select(state, name, css, label):
-    return pn.widgets.Select.from_param(state.param[name], name=label, css_classes=[css], sizing_mode="stretch_width")
+    return pn.widgets.Select.from_param(state.param[name], label=label, css_classes=[css], sizing_mode="stretch_width")
 
 
 def _controls(state, results):
     w = pn.widgets
     scene = _select(state, "scene", "w-scene", "Scene")
-    chart_options = pn.widgets.TextInput(name="Chart options (key=value, ...; Enter applies)", css_classes=["w-chart"],
+    chart_options = pn.widgets.TextInput(label="Chart options (key=value, ...; Enter applies)", css_classes=["w-chart"],
                                          sizing_mode="stretch_width")
 
     def on_scene(*_):
@@ -312,15 +312,15 @@ def _controls(state, results):
     camera = _select(state, "camera", "w-camera", "Camera preset")
     alpha = _slider_number(state, "alpha", "w-alpha", "Mixture alpha (0 cones, 1 DCS-200)",
                            start=0.0, end=1.0, step=0.05)
-    centers = w.TextInput.from_param(state.param.gaussian_centers, name="Gaussian centres (nm)",
+    centers = w.TextInput.from_param(state.param.gaussian_centers, label="Gaussian centres (nm)",
                                      css_classes=["w-centers"], sizing_mode="stretch_width")
-    widths = w.TextInput.from_param(state.param.gaussian_widths, name="Gaussian widths (nm)",
+    widths = w.TextInput.from_param(state.param.gaussian_widths, label="Gaussian widths (nm)",
                                     css_classes=["w-widths"], sizing_mode="stretch_width")
     optics = _select(state, "optics", "w-optics", "Optics")
     optics.description = ("preset: the camera's own lens (diffraction for the electron-level cameras, none for the "
                           "chapter's); none; or diffraction-limited blur at the f-number, per wavelength")
     mosaic = _select(state, "mosaic", "w-mosaic", "Mosaic")
-    tile = w.TextInput.from_param(state.param.custom_tile, name="Custom tile (0-based; rows split by ';')",
+    tile = w.TextInput.from_param(state.param.custom_tile, label="Custom tile (0-based; rows split by ';')",
                                   css_classes=["w-tile"], sizing_mode="stretch_width")
 
     distance = _slider_number(state, "distance", "w-distance", "Distance (m)",
@@ -328,13 +328,13 @@ def _controls(state, results):
     exposure = _number(w.FloatInput, state, "exposure", "w-exposure", "Exposure (s)", step=0.005, format="0.0000")
     light = _number(w.FloatInput, state, "light", "w-light", "Light level (x the scene's)", step=0.1, format="0.000",
                     description="A factor of the scene's own light, 0.001 to 1000: radiance and illuminant scaled")
-    auto = w.Button(name="Auto exposure", css_classes=["w-auto"], button_type="primary", width=120,
+    auto = w.Button(label="Auto exposure", css_classes=["w-auto"], color="primary", width=120,
                     description="Exposure putting the scene's brightest 0.5 % at 90 % of full scale")
     auto.on_click(lambda e: state.auto_expose())
     f_stop = _slider_number(state, "f_stop", "w-fstop", "f-stop", start=1.0, end=32.0, step=0.1)
     noise = _slider_number(state, "noise_sigma", "w-noise", "Noise sigma (digital units)",
                            start=0.0, end=50.0, step=0.5)
-    bits = w.Select(name="Bits of the raw (the display is 8-bit)", options=BITS_CHOICES, value=state.bits,
+    bits = w.Select(label="Bits of the raw (the display is 8-bit)", options=BITS_CHOICES, value=state.bits,
                     css_classes=["w-bits"], sizing_mode="stretch_width")
     bits.link(state, value="bits", bidirectional=True)
     # a float box: a whole number past 2**53 typed into Bokeh's integer box reached the server as nothing (no
@@ -345,9 +345,9 @@ def _controls(state, results):
     render = _select(state, "render_method", "w-render", "Rendering")
     illum = _select(state, "illuminant", "w-illuminant", "Illuminant")
     monitor = _select(state, "monitor", "w-monitor", "Monitor")
-    metric = w.RadioButtonGroup.from_param(state.param.metric, name="Error metric", css_classes=["w-metric"],
+    metric = w.RadioButtonGroup.from_param(state.param.metric, label="Error metric", css_classes=["w-metric"],
                                            sizing_mode="stretch_width")
-    de_scale = w.RadioButtonGroup.from_param(state.param.de_scale, name="dE colours", css_classes=["w-de-scale"],
+    de_scale = w.RadioButtonGroup.from_param(state.param.de_scale, label="dE colours", css_classes=["w-de-scale"],
                                              sizing_mode="stretch_width")
 
     # notes under controls that can be inert: a changing note is cheap, a changing widget label is not
@@ -385,7 +385,7 @@ def _controls(state, results):
 
     def save_and_share():
         params_down = w.FileDownload(callback=lambda: io.BytesIO(state.to_json().encode()), filename="camsim-parameters.json",
-                                     label="Parameters (JSON)", css_classes=["w-json-download"], button_type="light",
+                                     label="Parameters (JSON)", css_classes=["w-json-download"], color="light",
                                      sizing_mode="stretch_width")
         params_up = BoundedUpload(accept=".json", max_bytes=limits.max_json_bytes, css_classes=["w-json-upload"],
                                   sizing_mode="stretch_width")
@@ -402,11 +402,11 @@ def _controls(state, results):
         params_up.param.watch(on_params_refused, "refused")
         downloads = [
             w.FileDownload(callback=results.rendered_png, filename="rendered.png", label="Rendered PNG",
-                           css_classes=["w-png"], button_type="light", sizing_mode="stretch_width"),
+                           css_classes=["w-png"], color="light", sizing_mode="stretch_width"),
             w.FileDownload(callback=results.raw_tiff, filename="raw.tif", label="Raw TIFF",
-                           css_classes=["w-tiff"], button_type="light", sizing_mode="stretch_width"),
+                           css_classes=["w-tiff"], color="light", sizing_mode="stretch_width"),
             w.FileDownload(callback=results.de_csv, filename="delta_e.csv", label="dE values (CSV)",
-                           css_classes=["w-csv"], button_type="light", sizing_mode="stretch_width"),
+                           css_classes=["w-csv"], color="light", sizing_mode="stretch_width"),
         ]
         return [params_down, pn.pane.Markdown("Load parameters (JSON):"), params_up, *downloads]
 
@@ -476,7 +476,7 @@ def _physical_tab(state, when_shown):
 def _results_tab(state, views):
     results = views["results"]
     grid = views["grid"] = results.grid
-    fit = pn.widgets.Button(name="Show whole images", css_classes=["w-fit"], width=170)
+    fit = pn.widgets.Button(label="Show whole images", css_classes=["w-fit"], width=170)
     fit.on_click(lambda e: results.fit())
     return pn.Column(results.stats, results.warnings, grid,
                      pn.Row(fit, pn.pane.Markdown("Image views share zoom and pan: wheel to zoom, drag to pan; "
@@ -638,7 +638,7 @@ def create_app(scene=None):
 
     state.param.watch(on_message, ["message", "notice"])
     tabs = _lazy_tabs(state, views)
-    present = pn.widgets.Toggle(name="Presentation mode", css_classes=["w-present"], button_type="default",
+    present = pn.widgets.Toggle(label="Presentation mode", css_classes=["w-present"], color="default",
                                 sizing_mode="stretch_width")
     present.jscallback(value=_PRESENT_JS)
 
@@ -652,7 +652,7 @@ def create_app(scene=None):
     present.param.watch(on_present, "value")
     # Not a collapsed Card: a Card hides its children by setting their `visible` in the browser, which the
     # next update from the server undoes, and each round makes the browser lay the whole page out again.
-    show_diagnostics = pn.widgets.Checkbox(name="Show diagnostics (parameters computed, steps run, engine time)",
+    show_diagnostics = pn.widgets.Checkbox(label="Show diagnostics (parameters computed, steps run, engine time)",
                                            value=False, css_classes=["w-diagnostics"])
     results.status.visible = False
     show_diagnostics.param.watch(lambda event: setattr(results.status, "visible", event.new), "value")

@@ -242,7 +242,7 @@ class SensorControls(pn.viewable.Viewer):
         self.inputs = {}
         for name, (unit, low, high, what) in SENSOR_FIELDS.items():
             label, css = self.LABELS[name]
-            box = pn.widgets.FloatInput(name=label, value=None, css_classes=[css], sizing_mode="stretch_width",
+            box = pn.widgets.FloatInput(label=label, value=None, css_classes=[css], sizing_mode="stretch_width",
                                         description=f"{what}; {low:g} to {high:g} {unit}. Clear it for the camera's own.")
             box.param.watch(lambda e, n=name: self._from_widget(n, e.new), "value")
             self.inputs[name] = box

@@ -1150,9 +1150,9 @@ class SceneView(TabView):
             _label("Spectra of clicked pixels and regions (dotted: the wavelength shown)", "camsim-spectra-label"),
             pn.pane.Bokeh(spec, sizing_mode="stretch_width"), css_classes=["camsim-spectra"], sizing_mode="stretch_width")
         self.meta = pn.pane.Markdown("", css_classes=["camsim-scene-meta"], sizing_mode="stretch_width")
-        self.clear = pn.widgets.Button(name="Clear spectra", css_classes=["w-clear-spectra"], width=120)
+        self.clear = pn.widgets.Button(label="Clear spectra", css_classes=["w-clear-spectra"], width=120)
         self.clear.on_click(lambda e: self.reset_spectra())
-        self.wavelength = pn.widgets.DiscreteSlider(name="Wavelength (nm)", options=[550.0], value=550.0,
+        self.wavelength = pn.widgets.DiscreteSlider(label="Wavelength (nm)", options=[550.0], value=550.0,
                                                     css_classes=["w-wavelength"], width=280)
         self._scene = None
         super().__init__(state, when_shown, **params)

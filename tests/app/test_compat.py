@@ -264,7 +264,7 @@ def test_a_component_made_for_a_page_not_yet_written_takes_its_stylesheets_from_
     from bokeh.models import ImportedStyleSheet
 
     def urls(doc):
-        model = pn.widgets.Button(name="Run").get_root(doc)
+        model = pn.widgets.Button(label="Run").get_root(doc)
         return [s.url for s in model.select({"type": ImportedStyleSheet})]
 
     assert any(u.startswith(resources.CDN_DIST) for u in urls(Document()))  # Panel's own answer: the CDN
@@ -272,3 +272,22 @@ def test_a_component_made_for_a_page_not_yet_written_takes_its_stylesheets_from_
     made = urls(Document())
     assert made and not any(u.startswith("http") for u in made), made
     assert any(resources.LOCAL_DIST in u for u in made), made
+
+
+def test_the_explorer_uses_no_widget_name_panel_2_removes():
+    """Panel 1.9 labels widgets with ``label`` and colours buttons with ``color``; ``name`` and ``button_type``
+    warn and go in Panel 2.0. The whole page, every tab built, uses neither (a warning here is an error)."""
+    import warnings
+
+    from camsim_explorer import main
+    from camsim_explorer.shown import now
+    from camsim_explorer.state import ExplorerState
+    from camsim_explorer.views import ResultsView
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message=r".*(Widget\.name|button_type) is deprecated")
+        main.create_app()
+        state = ExplorerState()
+        views = {"results": ResultsView(state)}
+        for _, build in main.TABS:
+            build(state, views, now)
