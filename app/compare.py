@@ -378,6 +378,7 @@ class CompareView:
         self._built = False  # the plots are made when there is something to compare (a light page until then)
         self._prebuilt = None  # the plots made ahead by a worker thread (a dict for _ensure_plots)
         self._started = self._updated = 0.0  # when the designs computing began, when the tab was last updated
+        self._computing_text = None  # the message saying designs are computing (replaced when they are done)
         # what the views show of each design's arrays, made ahead in the thread that computed them (the event loop
         # then only sends it): {(kind, id(array)): (array, value)}, kept for the designs shown
         self._display = {}
@@ -578,7 +579,8 @@ class CompareView:
         self._computing = True
         self._started = time.monotonic()
         self.progress.max, self.progress.value = len(missing), 0
-        self.message.object = f"Computing {len(missing)} pinned design(s) on {md_text(self.state.scene)}..."
+        self.message.object = self._computing_text = (f"Computing {len(missing)} pinned design(s) on "
+                                                      f"{md_text(self.state.scene)}...")
         # what the live design's pipeline has computed (shared arrays, no copy): a design pinned as it is shown
         # re-runs only the steps the page has not (S-CIELAB, the quality measures), not its whole simulation
         # (a pin took 5-12 s, the whole pipeline again)
@@ -616,7 +618,11 @@ class CompareView:
         if done == total:
             self._computing = False
             self.progress.value = 0
-            self.message.object = "; ".join(f"**{md_text(n)}** refused: {md_text(m)}" for n, m in self.errors.items())
+            refused = "; ".join(f"**{md_text(n)}** refused: {md_text(m)}" for n, m in self.errors.items())
+            # the computing note gives way to the designs' refusals (or nothing); a message the user got meanwhile
+            # (a name refused while the designs computed) stays in sight
+            if refused or self.message.object == self._computing_text:
+                self.message.object = refused
         # the designs shown together when they come quickly (each update lays the tab out again in the browser),
         # one by one when each takes a while
         if done == total or time.monotonic() - max(self._started, self._updated) >= UPDATE_EVERY_S:

@@ -326,3 +326,19 @@ def test_a_live_move_sends_views_made_in_the_computing_thread(monkeypatch):
     assert live.params["noise_sigma"] == 3.0 and view._shown[0][1] is live.rendered
     assert {kind for kind, _ in made} == {"render", "de", "hist", "top"}, made
     assert all(thread != loop for _, thread in made), made
+
+
+def test_a_refusal_made_while_designs_compute_stays_in_sight():
+    """A name refused while pinned designs were computing vanished when they were done (the computing note's
+    place was cleared whatever it held): the browser fuzz, under load, never saw the refusal. The note itself
+    still gives way when the designs are done."""
+    state = ExplorerState()
+    view = CompareView(state)
+    view.message.object = view._computing_text = "Computing 1 pinned design(s) on cacaphony290..."
+    view._progress(view._generation, 1, 1)
+    assert view.message.object == ""
+    view.message.object = view._computing_text = "Computing 1 pinned design(s) on cacaphony290..."
+    assert not view.pin("n" * 400)
+    refusal = view.message.object
+    view._progress(view._generation, 1, 1)
+    assert "at most" in refusal and view.message.object == refusal
