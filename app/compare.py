@@ -213,7 +213,7 @@ class ImageView:
 
     def show(self, image, title):
         """Show ``image`` (bottom row first: packed RGBA, or values for the mapper) under ``title``."""
-        self.show_view(screen_part(image, state_module.LIMITS.max_view_side)[0], image.shape[:2], title)
+        self.show_view(*screen_view(image), title)
 
     def show_view(self, view, shape, title):
         """Show ``view``, what :func:`screen_part` sends of an image of ``shape`` (h, w), under ``title``."""
@@ -223,11 +223,15 @@ class ImageView:
             self.figure.title.text = title
 
 
+def screen_view(image):
+    """What an image view sends of ``image``: ``(view, (h, w))``, the image as it is, or as block means when
+    larger than the server's ``--max-view-side`` (:func:`screen_part`), and the image's own shape."""
+    return screen_part(image, state_module.LIMITS.max_view_side)[0], image.shape[:2]
+
+
 def rendered_view(rendered):
-    """What a rendered image's view sends: ``(view, (h, w))``, its packed RGBA (bottom row first) as block
-    means when larger than ``--max-view-side`` (:func:`screen_part`)."""
-    rendered = np.asarray(getattr(rendered, "data", rendered))
-    return screen_part(monitor_rgba(rendered), state_module.LIMITS.max_view_side)[0], rendered.shape[:2]
+    """:func:`screen_view` of a rendered image: its packed RGBA, bottom row first."""
+    return screen_view(monitor_rgba(rendered))
 
 
 def _ab_shown(a, b, metric):
@@ -240,16 +244,13 @@ def _ab_shown(a, b, metric):
         return str(exc)
     tie = a.error_map(metric) == b.error_map(metric)
     idx = np.where(tie, 2, np.where(ab["a_wins"], 0, 1))
-    wins = rgba32(_WIN_COLOURS[idx])
-    return (ab, de_view(ab["delta_e"]), (screen_part(wins, state_module.LIMITS.max_view_side)[0], wins.shape[:2]),
-            shared_scale([ab["delta_e"]]), _aspect(ab["delta_e"]))
+    return (ab, de_view(ab["delta_e"]), screen_view(rgba32(_WIN_COLOURS[idx])), shared_scale([ab["delta_e"]]),
+            _aspect(ab["delta_e"]))
 
 
 def de_view(de):
-    """What a dE map's view sends: ``(view, (h, w))``, its values as float32, bottom row first, as block means
-    when larger than ``--max-view-side``."""
-    flipped = np.ascontiguousarray(np.asarray(de, np.float32)[::-1])
-    return screen_part(flipped, state_module.LIMITS.max_view_side)[0], flipped.shape[:2]
+    """:func:`screen_view` of a dE map: its values as float32, bottom row first (coloured in the browser)."""
+    return screen_view(np.ascontiguousarray(np.asarray(de, np.float32)[::-1]))
 
 
 class SweepPlot:
@@ -325,13 +326,9 @@ class HistogramPlot:
         counts, _ = np.histogram(np.clip(v, 0, 30), cls.EDGES)
         return counts / v.size, float(np.mean(v)), float(np.median(v))
 
-    def update(self, items, metric, colours=None):
-        """Show ``items``, a list of (name, dE map), for ``metric`` ("CIELAB" or "S-CIELAB"), each design in
-        its colour of ``colours`` (name -> colour; by position when not given)."""
-        self.show([(name, self.stats(values)) for name, values in items], metric, colours)
-
     def show(self, items, metric, colours=None):
-        """:meth:`update` with each map's :meth:`stats` at hand: ``items`` a list of (name, stats)."""
+        """Show ``items``, a list of (name, :meth:`stats` of its dE map), for ``metric`` ("CIELAB" or
+        "S-CIELAB"), each design in its colour of ``colours`` (name -> colour; by position when not given)."""
         self.figure.title.text = f"Overlaid {metric} dE histograms (mean solid, median dashed)"
         colours = colours or design_colours([name for name, _ in items])
         for i in range(SLOTS):
@@ -601,8 +598,8 @@ class CompareView:
             params = {**p["params"], **self._shared()}
             try:
                 result = evaluate_design(params, p["name"], scene=scene, pipeline=pipeline)
-                self._prepare_design(result, self.state.metric)
                 self.store.put(key, params, result)
+                self._prepare_design(result, self.state.metric)
                 self.errors.pop(p["name"], None)
                 self._prebuild(_aspect(result.rendered))  # once: the plots the first update will show
             except CamsimError as exc:
@@ -713,7 +710,10 @@ class CompareView:
         de = self._de_map(r, metric)
         for kind, array in (("render", r.rendered), ("de", de), ("hist", de), ("top", de)):
             if array is not None and np.size(array):
-                self._prepared(kind, array)
+                try:
+                    self._prepared(kind, array)
+                except Exception:  # made ahead only: the update makes it again on the loop and says why there
+                    pass
 
     def _prepare_live(self, res):
         """In the session's computing thread, with a new result (``ExplorerState.preparers``): the live design

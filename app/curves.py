@@ -18,6 +18,8 @@ come and go by name.
 
 from __future__ import annotations
 
+from typing import NamedTuple, Sequence
+
 from bokeh.events import Tap
 from bokeh.models import ColumnDataSource, Legend, LegendItem, Range1d, Span
 from bokeh.plotting import figure
@@ -27,8 +29,8 @@ from .views import held
 __all__ = ["CurvesPlot", "Curve", "Mark"]
 
 
-class Curve(tuple):
-    """One curve: ``Curve(name, colour, xs, ys, width=2.0)`` (a tuple: name, colour, xs, ys, width).
+class Curve(NamedTuple):
+    """One curve: its legend name, line colour, x and y values, and line width (screen pixels).
 
     Examples
     --------
@@ -36,35 +38,25 @@ class Curve(tuple):
     2.0
     """
 
-    __slots__ = ()
-
-    def __new__(cls, name, colour, xs, ys, width=2.0):
-        return super().__new__(cls, (str(name), str(colour), xs, ys, float(width)))
-
-    name = property(lambda self: self[0])
-    colour = property(lambda self: self[1])
-    xs = property(lambda self: self[2])
-    ys = property(lambda self: self[3])
-    width = property(lambda self: self[4])
+    name: str
+    colour: str
+    xs: Sequence[float]
+    ys: Sequence[float]
+    width: float = 2.0
 
 
-class Mark(tuple):
-    """A vertical line across the plot: ``Mark(x, colour="gray", dash="dashed")``.
+class Mark(NamedTuple):
+    """A vertical line across the plot at ``x`` (data units), in ``colour``, ``dash`` a Bokeh dash pattern.
 
     Examples
     --------
-    >>> Mark(0.5, dash="dotted").dash
-    'dotted'
+    >>> Mark(0.5, dash="dotted")
+    Mark(x=0.5, colour='gray', dash='dotted')
     """
 
-    __slots__ = ()
-
-    def __new__(cls, x, colour="gray", dash="dashed"):
-        return super().__new__(cls, (float(x), str(colour), str(dash)))
-
-    x = property(lambda self: self[0])
-    colour = property(lambda self: self[1])
-    dash = property(lambda self: self[2])
+    x: float
+    colour: str = "gray"
+    dash: str = "dashed"
 
 
 class CurvesPlot:

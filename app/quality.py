@@ -61,7 +61,7 @@ def mtf_figure(mtf):
     ([('luminance', 'black', 3.0)], [0.5, 0.25], 'MTF50 0.250 cy/px (dashed)')
     """
     colours = channel_colours(list(mtf))
-    curves = [Curve(name, colours[name], v["frequency"], v["mtf"], 3 if name == "luminance" else 1.5)
+    curves = [Curve(name, colours[name], v["frequency"], v["mtf"], 3.0 if name == "luminance" else 1.5)
               for name, v in mtf.items()]
     lum = mtf.get("luminance") or next(iter(mtf.values()))
     marks = [Mark(0.5, "gray", "dotted")]
