@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
 import subprocess
 import sys
@@ -224,17 +225,26 @@ def test_bilinear_equals_normalized_convolution(tile, shape):
     np.testing.assert_allclose(out32, out, rtol=1e-5, atol=1e-3)
 
 
+@functools.cache
+def _bounds_checked_stencil_rows():
+    """The stencil kernel compiled once for the cases below (with bounds checks: numba raises IndexError where
+    the engine's build would write past its arrays); compiled anew per case it cost 1.2-2.2 s each."""
+    import numba
+
+    from camsim_core.demosaicing import bilinear
+
+    return numba.njit(boundscheck=True)(bilinear._stencil_rows)
+
+
 @pytest.mark.parametrize("tile", [BAYER["RGGB"], np.array([[0, 1, 2], [1, 2, 0], [2, 0, 1]])])
 @pytest.mark.parametrize("shape", [(1, 1), (1, 2), (2, 1), (3, 1), (1, 3), (2, 2), (4, 2), (2, 5)])
 def test_bilinear_stencils_stay_inside_images_smaller_than_their_reach(tile, shape):
     """The stencil kernel compiled with bounds checks (numba raises IndexError where the engine's build
     would write past its arrays) on images narrower or shorter than the tile's reach: in bounds, and the
     textbook numbers."""
-    import numba
-
     from camsim_core.demosaicing import bilinear
 
-    checked = numba.njit(boundscheck=True)(bilinear._stencil_rows)
+    checked = _bounds_checked_stencil_rows()
     k = int(tile.max()) + 1
     t = np.ascontiguousarray(tile, np.int64)
     data = np.random.default_rng(5).uniform(0, 255, shape)
