@@ -29,8 +29,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.ndimage as ndi
-from skimage.feature import match_template
-from skimage.registration import phase_cross_correlation
 
 from ..errors import ParameterError
 from .cielab import _method, _xyz_to_lab, check_white, check_xyz, delta_e_lab
@@ -151,6 +149,8 @@ def _match_at_scale(fixed, moving, scale, margin):
     tpl = template[r0 : r0 + size[0], c0 : c0 + size[1]]
     if np.ptp(tpl) == 0 or np.ptp(image) == 0:
         return (0.0, 0.0), -np.inf
+    from skimage.feature import match_template  # here, not at import: it loads scipy.signal (~0.6 s a process)
+
     ncc = match_template(image, tpl)
     i, j = np.unravel_index(np.argmax(ncc), ncc.shape)
     score = float(ncc[i, j])
@@ -233,6 +233,8 @@ def _refine(f, m, scale, t):
         return t
     ref = f[r0:r1, c0:c1]
     mov = _resample(m, scale, (r1 - r0, c1 - c0), (scale * (r0 + t[0]), scale * (c0 + t[1])))
+    from skimage.registration import phase_cross_correlation  # here, as match_template above
+
     d, _, _ = phase_cross_correlation(ref, mov, upsample_factor=10, normalization=None)
     # phase_cross_correlation returns the shift that moves ``mov`` onto ``ref``: ref(r) = mov(r - d)
     if np.all(np.abs(d) < 2):
