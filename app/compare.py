@@ -32,6 +32,7 @@ import io
 import json
 import threading
 import time
+import weakref
 from collections import OrderedDict
 from functools import partial
 
@@ -131,6 +132,43 @@ class DesignStore:
     @property
     def nbytes(self):
         return sum(r.nbytes for r in self._items.values())
+
+
+class SharedDesigns:
+    """The evaluated designs the server's sessions hold, by (scene, parameters): one session finds a design another
+    has computed instead of computing it again.
+
+    A class opens the link its teacher shares: each page restored the teacher's pinned designs by computing them
+    anew (four designs of a frame-sized chart: 5-8 s a page, and 71 MB a design held by each page). Held weakly:
+    a design stays here only while a session keeps it (nothing is kept for a server with no page open). Designs of
+    shipped scenes and charts only: an uploaded scene is its session's alone (its key names the object).
+    """
+
+    def __init__(self):
+        self._items = weakref.WeakValueDictionary()
+        self._lock = threading.Lock()
+
+    @staticmethod
+    def shareable(scene_key):
+        return "@" not in scene_key[0]
+
+    def get(self, scene_key, params):
+        if not self.shareable(scene_key):
+            return None
+        with self._lock:
+            return self._items.get(DesignStore.key(scene_key, params))
+
+    def put(self, scene_key, params, result):
+        if self.shareable(scene_key):
+            with self._lock:
+                self._items[DesignStore.key(scene_key, params)] = result
+
+    def __len__(self):
+        return len(self._items)
+
+
+#: The designs held by the sessions of this server (:class:`SharedDesigns`).
+SHARED_DESIGNS = SharedDesigns()
 
 
 #: The title of an image view before it shows an image: not empty, so that the browser keeps the title's room (a
@@ -384,6 +422,8 @@ class CompareView:
         self._build_widgets()
         state.param.watch(self._on_pinned, ["pinned"])
         refresh, request_update = when_shown(self.refresh), when_shown(self._request_update)
+        # designs computed while the tab is hidden (a link's, computing as its page loads) are shown when it is
+        self._update_shown = when_shown(lambda: self._safely(self.update))
         state.param.watch(lambda e: refresh(), ["scene", "viewing"])
         state.param.watch(lambda e: request_update(), ["result", "metric"])
         state.param.watch(self._on_sweep, ["sweep"])
@@ -582,11 +622,19 @@ class CompareView:
         # re-runs only the steps the page has not (S-CIELAB, the quality measures), not its whole simulation
         # (a pin took 5-12 s, the whole pipeline again)
         live = self.state.pipeline.snapshot() if self.state.result is not None and not self.state.computing else None
-        if self._server_doc() is None:
+        doc = self._server_doc()
+        if doc is None:
             self._compute(missing, scene, key, generation, live)
+            return
+        start = partial(threading.Thread(target=self._compute, args=(missing, scene, key, generation, live),
+                                         daemon=True, name="camsim-compare").start)
+        if getattr(doc.session_context, "session", None) is None:
+            # the page is being built (a link's pinned designs): the worker starts once its session is live. Its
+            # callbacks added while Bokeh set the session up were lost or run out of order (the last design's
+            # among them: the tab said "computing" for ever, one link in three when the designs were at hand)
+            doc.add_next_tick_callback(start)
         else:
-            threading.Thread(target=self._compute, args=(missing, scene, key, generation, live), daemon=True,
-                             name="camsim-compare").start()
+            start()
 
     def _compute(self, missing, scene, key, generation, live=None):
         pipeline = Pipeline()  # one per thread; its results are exactly a fresh run's (camsim_core.cache)
@@ -597,7 +645,10 @@ class CompareView:
                 return
             params = {**p["params"], **self._shared()}
             try:
-                result = evaluate_design(params, p["name"], scene=scene, pipeline=pipeline)
+                result = SHARED_DESIGNS.get(key, params)  # another page's (a link's designs, pinned by who shared it)
+                if result is None:
+                    result = evaluate_design(params, p["name"], scene=scene, pipeline=pipeline)
+                    SHARED_DESIGNS.put(key, params, result)
                 self.store.put(key, params, result)
                 self._prepare_design(result, self.state.metric)
                 self.errors.pop(p["name"], None)
@@ -623,7 +674,7 @@ class CompareView:
         # the designs shown together when they come quickly (each update lays the tab out again in the browser),
         # one by one when each takes a while
         if done == total or time.monotonic() - max(self._started, self._updated) >= UPDATE_EVERY_S:
-            self._safely(self.update)
+            self._update_shown()
 
     def _safely(self, fn):
         """Run a view update from a callback; a failure shows a message (and goes to the log), never a dead tab."""

@@ -508,6 +508,10 @@ TABS = [
 ]
 
 
+#: The index of the Compare designs tab in :data:`TABS`.
+_COMPARE_TAB = [title for title, _ in TABS].index("Compare designs")
+
+
 def _lazy_tabs(state, views):
     """The tabs, each built the first time it is shown: a page opens with the Results tab only,
     so its first render does not wait for plots nobody has looked at yet."""
@@ -530,6 +534,11 @@ def _lazy_tabs(state, views):
             state.defer(lambda: resend_plot_text(doc))  # once the tab's plots are back in the document
         themes[index] = doc.theme
 
+    def build(index):
+        if index not in built:
+            built.add(index)
+            holders[index].objects = [TABS[index][1](state, views, gates[index])]
+
     def show(index):
         if not 0 <= index < len(TABS):
             return
@@ -537,14 +546,20 @@ def _lazy_tabs(state, views):
         for i, gate in enumerate(gates):
             if gate is not now and i != index:
                 gate.show(False)
-        if index not in built:
-            built.add(index)
-            holders[index].objects = [TABS[index][1](state, views, gates[index])]
+        build(index)
         if gates[index] is not now:
             gates[index].show(True)  # what changed while it was hidden, brought up to date
 
+    def pinned(*_):
+        # pinned designs (a link's, a parameters file's) compute from the moment there are some, in the Compare
+        # tab's worker, whatever tab is open: a link's are ready when its page has loaded and the tab is opened
+        if state.pinned:
+            build(_COMPARE_TAB)
+
     tabs.param.watch(lambda event: show(event.new), "active")
+    state.param.watch(pinned, "pinned")
     show(tabs.active)
+    pinned()
     views["tabs"] = tabs
     views["restyle_tab"] = lambda: restyle(tabs.active)  # after a change of theme (presentation mode)
     return tabs

@@ -342,3 +342,103 @@ def test_a_refusal_made_while_designs_compute_stays_in_sight():
     refusal = view.message.object
     view._progress(view._generation, 1, 1)
     assert "at most" in refusal and view.message.object == refusal
+
+
+def _pinned_entries(*cameras):
+    """Pinned-design entries (as a link or a parameters file holds them) for ``cameras`` on the default scene."""
+    from camsim_core.review.design import check_pinned
+
+    return check_pinned([{"name": cam, "params": {"camera": cam}} for cam in cameras])  # full parameters
+
+
+@pytest.fixture
+def counted(monkeypatch):
+    """Calls of evaluate_design by the Compare tab (names), with a registry of shared designs of this test's own."""
+    import camsim_explorer.compare as module
+
+    calls = []
+    real = module.evaluate_design
+    monkeypatch.setattr(module, "evaluate_design", lambda params, name, **kw: calls.append(name) or real(params, name, **kw))
+    monkeypatch.setattr(module, "SHARED_DESIGNS", module.SharedDesigns())
+    return calls
+
+
+def test_a_links_pinned_designs_compute_while_the_compare_tab_is_hidden_and_show_when_it_opens(counted):
+    """A link's (or a parameters file's) pinned designs are computed from the moment the page has them, whatever
+    tab is open: the Compare tab was built, and its designs computed, only once a student opened it (a link
+    of four designs of a frame-sized chart: 10-13 s after the page was open)."""
+    from camsim_explorer import main
+    from camsim_explorer.views import ResultsView
+
+    entries = _pinned_entries("kodak-dcs200-ir", "human-cones")
+    state = ExplorerState(start=False)
+    tabs = main._lazy_tabs(state, {"state": state, "results": ResultsView(state)})
+    compare_holder = tabs.objects[main._COMPARE_TAB]
+    assert compare_holder.objects == []  # no designs, no Compare tab yet (a light page)
+    state.pinned = entries
+    assert tabs.active == 0 and len(compare_holder.objects) == 1
+    view = compare_holder.objects[0].compare
+    assert counted == ["kodak-dcs200-ir", "human-cones"]  # computed with the tab hidden
+    assert view.progress.value == 0 and not view._computing
+    assert "human-cones" not in (view.status.object or "")  # and shown only when the tab opens
+    tabs.active = main._COMPARE_TAB
+    status = json.loads(view.status.object)
+    assert [d["name"] for d in status["designs"]][-2:] == ["kodak-dcs200-ir", "human-cones"]
+    assert status["busy"] is False and counted == ["kodak-dcs200-ir", "human-cones"]
+
+
+def test_a_design_another_session_holds_is_taken_not_computed_again(counted):
+    """A class opening its teacher's link: each page computed the teacher's designs again (5-8 s and 71 MB a
+    design of a frame-sized chart, per page). A design another session holds is the same object, not a copy;
+    the registry keeps nothing no session holds, and never an uploaded scene's design."""
+    import gc
+    import types
+
+    import camsim_explorer.compare as module
+
+    entries = _pinned_entries("human-cones")
+    counted.clear()
+    first = CompareView(ExplorerState(start=False))
+    first.state.pinned = entries
+    second = CompareView(ExplorerState(start=False))
+    second.state.pinned = entries
+    assert counted == ["human-cones"]
+    key = first._scene_key()
+    mine, theirs = first.store.get(key, entries[0]["params"]), second.store.get(key, entries[0]["params"])
+    assert mine is not None and mine is theirs
+    assert len(module.SHARED_DESIGNS) == 1
+    del first, second, mine, theirs
+    gc.collect()
+    assert len(module.SHARED_DESIGNS) == 0  # held weakly: gone with the sessions that held it
+    upload, held = ("upload:mine.npz@140000", 0.2), types.SimpleNamespace()  # a session's own scene: not shared
+    module.SHARED_DESIGNS.put(upload, entries[0]["params"], held)
+    assert module.SHARED_DESIGNS.get(upload, entries[0]["params"]) is None and len(module.SHARED_DESIGNS) == 0
+
+
+def test_designs_computed_for_a_page_being_built_start_once_its_session_is_live(monkeypatch):
+    """A link's designs start computing while its page is built, before Bokeh has made the page's session: the
+    worker's callbacks added meanwhile were lost or ran out of order (the last design's among them, and the tab
+    said "computing" for ever: one link in three when the designs were at hand). The worker starts on the
+    session's first tick; once the session is live, at once."""
+    import threading
+    import types
+
+    class Doc:
+        def __init__(self, session):
+            self.session_context = types.SimpleNamespace(session=session)
+            self.ticks = []
+
+        def add_next_tick_callback(self, fn):
+            self.ticks.append(fn)
+
+    entries = _pinned_entries("human-cones")
+    for session in (None, object()):
+        view = CompareView(ExplorerState(start=False))
+        started = threading.Event()
+        monkeypatch.setattr(view, "_compute", lambda *args: started.set())
+        view._doc = doc = Doc(session)
+        view.state.pinned = entries  # refresh: one design to compute
+        if session is None:
+            assert not started.wait(0.2) and len(doc.ticks) == 1
+            doc.ticks.pop()()  # the session's first tick
+        assert started.wait(30)
