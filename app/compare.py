@@ -622,19 +622,10 @@ class CompareView:
         # re-runs only the steps the page has not (S-CIELAB, the quality measures), not its whole simulation
         # (a pin took 5-12 s, the whole pipeline again)
         live = self.state.pipeline.snapshot() if self.state.result is not None and not self.state.computing else None
-        doc = self._server_doc()
-        if doc is None:
+        if self._server_doc() is None:
             self._compute(missing, scene, key, generation, live)
-            return
-        start = partial(threading.Thread(target=self._compute, args=(missing, scene, key, generation, live),
-                                         daemon=True, name="camsim-compare").start)
-        if getattr(doc.session_context, "session", None) is None:
-            # the page is being built (a link's pinned designs): the worker starts once its session is live. Its
-            # callbacks added while Bokeh set the session up were lost or run out of order (the last design's
-            # among them: the tab said "computing" for ever, one link in three when the designs were at hand)
-            doc.add_next_tick_callback(start)
         else:
-            start()
+            self._start_worker(self._compute, (missing, scene, key, generation, live), "camsim-compare")
 
     def _compute(self, missing, scene, key, generation, live=None):
         pipeline = Pipeline()  # one per thread; its results are exactly a fresh run's (camsim_core.cache)
@@ -658,6 +649,21 @@ class CompareView:
             except Exception as exc:  # never a dead page
                 self.errors[p["name"]] = f"{type(exc).__name__}: {exc}"
             self._schedule(partial(self._progress, generation, i + 1, len(missing)))
+
+    def _start_worker(self, target, args, name):
+        """Run ``target(*args)`` in a thread of its own, started once this page's session is live.
+
+        A link's pinned designs and sweep start while its page is being built, before Bokeh has made the
+        page's session: callbacks a worker added to the document meanwhile were lost or ran out of order (the
+        last design's progress among them: the tab said "computing" for ever, one link in three when the
+        designs were at hand). Such a worker starts on the session's first tick.
+        """
+        start = threading.Thread(target=target, args=args, daemon=True, name=name).start
+        doc = self._server_doc()
+        if doc is not None and getattr(doc.session_context, "session", None) is None:
+            doc.add_next_tick_callback(start)
+        else:
+            start()
 
     def _progress(self, generation, done, total):
         if generation != self._generation:
@@ -985,8 +991,7 @@ class CompareView:
             for p in points:
                 self._add_point(cancel, p)
         else:
-            threading.Thread(target=self._sweep_work, args=(cancel, points), daemon=True,
-                             name="camsim-sweep-feed").start()
+            self._start_worker(self._sweep_work, (cancel, points), "camsim-sweep-feed")
 
     def _sweep_work(self, cancel, points):
         try:

@@ -419,7 +419,7 @@ def test_designs_computed_for_a_page_being_built_start_once_its_session_is_live(
     """A link's designs start computing while its page is built, before Bokeh has made the page's session: the
     worker's callbacks added meanwhile were lost or ran out of order (the last design's among them, and the tab
     said "computing" for ever: one link in three when the designs were at hand). The worker starts on the
-    session's first tick; once the session is live, at once."""
+    session's first tick; once the session is live, at once. A link's sweep too."""
     import threading
     import types
 
@@ -442,3 +442,10 @@ def test_designs_computed_for_a_page_being_built_start_once_its_session_is_live(
             assert not started.wait(0.2) and len(doc.ticks) == 1
             doc.ticks.pop()()  # the session's first tick
         assert started.wait(30)
+        swept = threading.Event()  # a link's sweep, the same way
+        monkeypatch.setattr(view, "_sweep_work", lambda *args: swept.set())
+        view.state.sweep = {"parameter": "noise_sigma", "values": [0.0, 1.0]}  # starts it
+        if session is None:
+            assert not swept.wait(0.2) and len(doc.ticks) == 1
+            doc.ticks.pop()()
+        assert swept.wait(30)
