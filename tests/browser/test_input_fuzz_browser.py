@@ -24,7 +24,7 @@ from urllib.parse import urlencode
 
 import pytest
 
-from app_helpers import TIMEOUT, Page, server_log, wait_until
+from app_helpers import TIMEOUT, Page, inner_texts, server_log, wait_until
 from camsim_explorer.state import URL_PARAMETERS
 
 pytestmark = pytest.mark.browser
@@ -74,8 +74,8 @@ def _type(page, css, text):
 
 def _messages(page):
     """The page's alert and the tabs' messages, as one text."""
-    tabs = page.page.locator(".camsim-compare-message p, .camsim-sweep-message p, .camsim-exp-message p")
-    return page.alert_text() + " | " + " ".join(tabs.all_inner_texts())
+    tabs = inner_texts(page, ".camsim-compare-message p, .camsim-sweep-message p, .camsim-exp-message p")
+    return page.alert_text() + " | " + tabs
 
 
 def _settled(page):

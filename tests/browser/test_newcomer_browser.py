@@ -6,7 +6,7 @@ import re
 
 import pytest
 
-from app_helpers import Page, cut_titles, eventually, server_log, shown_titles, wait_until
+from app_helpers import Page, cut_titles, eventually, inner_texts, server_log, shown_titles, wait_until
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -38,7 +38,7 @@ def test_image_quality_tab_opened_before_the_chart_follows_it(browser, server):
     try:
         page.page.locator(".bk-tab").filter(has_text="Image quality").first.click()
         # the pane's paragraphs and tables (in its shadow root)
-        quality = lambda: " ".join(page.page.locator(".camsim-quality p, .camsim-quality table").all_inner_texts())  # noqa: E731
+        quality = lambda: inner_texts(page, ".camsim-quality p, .camsim-quality table")  # noqa: E731
         _until(lambda: "Pick the" in quality(), "the tab's hint for a scene without a chart")
         page.select("w-scene", "slanted-edge")
         page.wait_for(lambda s: s["params"]["scene"].startswith("slanted-edge") and not s["computing"])
@@ -449,7 +449,7 @@ def test_small_things_views_line_up_and_text_reads_as_text(browser, server):
         page.shot("full-colour-titles-1366")
 
         page.page.locator(".bk-tab").filter(has_text="Scene").first.click()
-        facts = _until(lambda: (t := " ".join(page.page.locator(".camsim-scene-meta table").all_inner_texts()))
+        facts = _until(lambda: (t := inner_texts(page, ".camsim-scene-meta table"))
                        and "Angular" in t and t,
                        "the scene's facts")
         assert not any(c in facts for c in "{}[]'"), facts  # words and numbers, never a Python repr

@@ -38,13 +38,16 @@ CHARTS = ("macbeth", "slanted-edge", "zone-plate", "stripes")
 #: The electron-level cameras among CHANGES: the Optics & sensor tab plots their photon transfer.
 PHOTON_CAMERAS = ("imx174",)
 
-MARKDOWN_JS = ("e => { const r = e.shadowRoot || e; "
-               "return (r.querySelector('.markdown') || r.querySelector('div') || e).innerText; }")
+#: JS: the text of the first pane ``css`` selects (a Markdown pane's rendered text), "" when there is none; one call
+#: into the page per look (a wait polls it).
+PANE_TEXT_JS = ("css => { const find = (root) => { const hit = root.querySelector(css); if (hit) return hit;"
+                " for (const el of root.querySelectorAll('*')) if (el.shadowRoot) { const f = find(el.shadowRoot);"
+                " if (f) return f; } return null; }; const e = find(document); if (!e) return '';"
+                " const r = e.shadowRoot || e; return (r.querySelector('.markdown') || r.querySelector('div') || e).innerText; }")
 
 
 def _pane_text(page, css):
-    loc = page.page.locator(css).first
-    return loc.evaluate(MARKDOWN_JS) if loc.count() else ""
+    return page.page.evaluate(PANE_TEXT_JS, css)
 
 
 def _open(page, title):

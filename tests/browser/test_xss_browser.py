@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 import scipy.io
 
-from app_helpers import ARTIFACTS, POLL, TIMEOUT, new_page, wait_until
+from app_helpers import ARTIFACTS, POLL, STATUS_JS, TIMEOUT, inner_texts, new_page, wait_until
 from camsim_explorer.state import COMPARE_PARAMETERS, URL_PARAMETERS
 
 pytestmark = pytest.mark.browser
@@ -111,7 +111,7 @@ class Tab:
 
     def text(self, css):
         """The visible text of the elements ``css`` selects (Playwright's CSS looks into shadow roots)."""
-        return " ".join(self.page.locator(css).all_inner_texts())
+        return inner_texts(self.page, css)
 
     def wait_text(self, css, needle, timeout=TIMEOUT):
         """Wait until the text of ``css`` holds ``needle``; return that text."""
@@ -126,7 +126,7 @@ class Tab:
 
     def status(self):
         try:
-            return json.loads(self.page.locator(".camsim-status pre").first.text_content() or "")
+            return json.loads(self.page.evaluate(STATUS_JS) or "")
         except ValueError:
             return {}
 
