@@ -63,6 +63,8 @@ __all__ = ["CompareView", "DesignStore", "compare_tab"]
 
 LIVE = "live"
 SLOTS = MAX_PINNED + 1
+#: The image-quality measures every scene allows: their rows show "measuring..." while a design's are computed.
+_ALWAYS_MEASURED = ("psnr_db", "ssim")
 #: While pinned designs are computed, the tab shows those done at most this often (seconds): designs that come
 #: quickly are shown together (each update lays the whole tab out again in the browser).
 UPDATE_EVERY_S = 1.0
@@ -628,18 +630,27 @@ class CompareView:
             self._start_worker(self._compute, (missing, scene, key, generation, live), "camsim-compare")
 
     def _compute(self, missing, scene, key, generation, live=None):
+        """Compute the designs ``missing`` (shown as each is done), then their image-quality measures.
+
+        A design is shown once simulated and scored (its images, dE maps and numbers); its image-quality
+        measures (SSIM, PSNR, the chart's MTF50, SNR or CIEDE2000: 0.3-0.7 s a design, more than the rest of a
+        pinned design) follow in the same thread, and the table fills in when they are done. A design is
+        offered to other sessions once measured. Measures of designs computed here are taken even if the
+        pinned designs change meanwhile: each holds its pipeline result until measured.
+        """
         pipeline = Pipeline()  # one per thread; its results are exactly a fresh run's (camsim_core.cache)
         if live is not None:
             pipeline.start_from(live)
+        later = []  # (params, design) measured once every design is shown
         for i, p in enumerate(missing):
             if generation != self._generation:
-                return
+                break
             params = {**p["params"], **self._shared()}
             try:
                 result = SHARED_DESIGNS.get(key, params)  # another page's (a link's designs, pinned by who shared it)
                 if result is None:
-                    result = evaluate_design(params, p["name"], scene=scene, pipeline=pipeline)
-                    SHARED_DESIGNS.put(key, params, result)
+                    result = evaluate_design(params, p["name"], scene=scene, pipeline=pipeline, quality="later")
+                    later.append((params, result))
                 self.store.put(key, params, result)
                 self._prepare_design(result, self.state.metric)
                 self.errors.pop(p["name"], None)
@@ -649,6 +660,23 @@ class CompareView:
             except Exception as exc:  # never a dead page
                 self.errors[p["name"]] = f"{type(exc).__name__}: {exc}"
             self._schedule(partial(self._progress, generation, i + 1, len(missing)))
+        in_worker = self._server_doc() is not None  # a thread of its own (else the caller's: a test, a notebook)
+        for params, result in later:
+            try:
+                result.measure_quality(background=in_worker)
+            except Exception:  # a measure that fails leaves its cells "n/a" (logged), never the design unshown
+                import logging
+
+                logging.getLogger("camsim.compare").exception("image-quality measures of a pinned design failed")
+                result.quality_inputs = None
+            SHARED_DESIGNS.put(key, params, result)
+        if later:
+            self._schedule(self._measured)
+
+    def _measured(self):
+        """The image-quality measures of designs just computed are in: the table (and status) show them."""
+        if not self._computing:
+            self._update_shown()
 
     def _start_worker(self, target, args, name):
         """Run ``target(*args)`` in a thread of its own, started once this page's session is live.
@@ -875,10 +903,12 @@ class CompareView:
                     f'<td class="num" data-value="{r.measures[key][stat]!r}">{r.measures[key][stat]:.2f}</td>'
                     if key in r.measures else "<td>n/a</td>" for r in results)
                 rows.append(f'<tr class="measure" data-measure="{key}-{stat}"><th>{label} {metric}</th>{cells}</tr>')
+        pending = [r.quality_pending for r in results]
         for key, label in QUALITY_LABELS.items():  # the image-quality measures the scene allows
-            if not any(key in r.quality for r in results):
+            if not any(key in r.quality for r in results) and not (any(pending) and key in _ALWAYS_MEASURED):
                 continue
-            cells = "".join(quality_cell(r, key) for r in results)
+            cells = "".join('<td class="measuring">measuring...</td>' if waiting else quality_cell(r, key)
+                            for r, waiting in zip(results, pending))
             rows.append(f'<tr class="measure" data-measure="{key}"><th>{label}</th>{cells}</tr>')
         style = ("<style>table.cmp{border-collapse:collapse} table.cmp th, table.cmp td{border:1px solid #ccc;"
                  "padding:2px 8px} td.num{text-align:right}</style>")
@@ -1077,6 +1107,7 @@ class CompareView:
             "pinned": [p["name"] for p in self.state.pinned],
             "differ": differing_parameters([r.params for r in results], skip=_SHARED) if results else [],
             "busy": self._computing,
+            "measuring": [r.name for r in results if r.quality_pending],
             "errors": self.errors,
             "scale_top": top,
             "hist_curves": len(results),
@@ -1099,6 +1130,8 @@ class CompareView:
         for i, r in enumerate(results):
             if r.name == LIVE and not r.quality and res is not None:  # the report has the live design's measures too
                 results[i] = dataclasses.replace(r, quality=quality_measures(res, self.state.processing().monitor))
+            elif r.quality_pending:  # a design just pinned, whose measures the tab's worker has not finished
+                r.measure_quality()
         ab = None
         if self.ab is not None and len(results) >= 2 and self.ab[0] == results[0].name and self.ab[1] == results[1].name:
             ab = self.ab[2]

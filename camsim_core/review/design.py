@@ -417,6 +417,43 @@ class DesignResult:
     measures: dict = field(default_factory=dict)
     quality: dict = field(default_factory=dict)
     seconds: float = 0.0
+    #: What measures ``quality`` when it was left for later (``evaluate_design(quality="later")``): the pipeline's
+    #: result and the monitor, held until :meth:`measure_quality` runs; None once measured (or never left).
+    quality_inputs: tuple | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def quality_pending(self):
+        """True while the image-quality measures were left for later and are not measured yet."""
+        return self.quality_inputs is not None
+
+    def measure_quality(self, background=False):
+        """Measure the image-quality measures left for later (:func:`quality_measures`), into ``quality``.
+
+        Returns ``quality``. Idempotent: a design measured already (or never left for later) is returned as
+        it is. The pipeline result held for it is released. ``background``: measured as background work (one
+        core, at lower priority, one background job at a time in the process), so that what the user waits for
+        meanwhile (a browser drawing the design on the same machine, another session's moves) keeps the
+        other cores; for a thread made for the work (the thread's priority stays lowered).
+
+        Examples
+        --------
+        >>> r = evaluate_design({"scene": "macbeth", "camera": "kodak-dcs200"}, quality="later")
+        >>> r.quality, r.quality_pending
+        ({}, True)
+        >>> sorted(r.measure_quality()) == ["macbeth_de2000", "psnr_db", "ssim"] and not r.quality_pending
+        True
+        """
+        inputs = self.quality_inputs
+        if inputs is not None:
+            if background:
+                from .._parallel import background as background_work
+
+                with background_work():
+                    self.quality = quality_measures(*inputs)
+            else:
+                self.quality = quality_measures(*inputs)
+            self.quality_inputs = None
+        return self.quality
 
     @property
     def shape(self):
@@ -496,8 +533,10 @@ def evaluate_design(params, name="design", *, scene=None, pipeline=None, metrics
         The result is exactly that of a fresh run either way.
     metrics : tuple
         Error maps to compute: "cielab" and/or "scielab".
-    quality : bool
-        Also the image-quality measures (:func:`quality_measures`; sweeps leave them out).
+    quality : bool or "later"
+        Also the image-quality measures (:func:`quality_measures`; sweeps leave them out). ``"later"``: not
+        now, but held so that :meth:`DesignResult.measure_quality` measures them (a view shows the design
+        first, its 0.3-0.7 s of quality measures after).
 
     Returns
     -------
@@ -519,9 +558,14 @@ def evaluate_design(params, name="design", *, scene=None, pipeline=None, metrics
         camera = camera_from_params(p)
     except CamsimError as exc:
         raise CamsimError(f"{name}: {exc}") from None
+    if quality not in (True, False, "later"):
+        raise ParameterError(f"quality: True, False or 'later' (got {quality!r})")
     proc = processing_from_params(p, metrics=metrics)
     res = (pipeline or Pipeline()).run(scene_obj, camera, proc)
-    return result_from_pipeline(res, p, name, proc, quality=quality)
+    out = result_from_pipeline(res, p, name, proc, quality=quality is True)
+    if quality == "later":
+        out.quality_inputs = (res, proc.monitor)
+    return out
 
 
 def result_from_pipeline(res, params, name, processing, quality=True):
