@@ -177,6 +177,8 @@ function compareHas(s, want) {
   if (!s || s.busy) return false;
   if (want.pinned !== undefined && (s.pinned.length !== want.pinned || s.designs.length < want.pinned)) return false;
   if (want.points !== undefined && !(s.sweep && s.sweep.points.length === want.points)) return false;
+  // this sweep's values, not the last sweep's points still shown when the button was clicked
+  if (want.values !== undefined && !(s.sweep && JSON.stringify(s.sweep.values) === JSON.stringify(want.values))) return false;
   return true;
 }
 """
@@ -248,7 +250,8 @@ def compare_rows(browser, page, repeats):
         box = page.locator(".w-sweep-values input").first
         box.fill(values)
         box.press("Enter")
-        sweeps.append(_ms(page.evaluate(_COMPARE_ACT, ["w-sweep-run", {"points": 4 * 6}]), "sweep"))
+        want = {"points": 4 * 6, "values": [float(v) for v in values.split(",")]}
+        sweeps.append(_ms(page.evaluate(_COMPARE_ACT, ["w-sweep-run", want]), "sweep"))
     page.wait_for_function("() => window.location.search.includes('pinned=')", timeout=60000)
     # the link as a user shares it after pinning, without the sweep (the row times the designs' restoration)
     parts = urllib.parse.urlsplit(page.evaluate("window.location.href"))
