@@ -37,7 +37,8 @@ from .physical import SensorControls
 from .quality import QualityView
 from .safe_text import md_text
 from .shown import WhenShown, now
-from .state import BITS_CHOICES, COMPARE_PARAMETERS, URL_PARAMETERS, VIEW_PARAMETERS, ExplorerState, Runner
+from .state import (BITS_CHOICES, COMPARE_PARAMETERS, PAGE_PARAMETERS, TAB_NAMES, URL_PARAMETERS, VIEW_PARAMETERS,
+                    ExplorerState, Runner)
 from .typed_text import TypedTextWatch
 from .upload import BoundedUpload
 from .views import CameraView, ResultsView, SceneView, Text, _after, once, when_page_ready
@@ -510,6 +511,7 @@ TABS = [
 
 #: The index of the Compare designs tab in :data:`TABS`.
 _COMPARE_TAB = [title for title, _ in TABS].index("Compare designs")
+assert len(TAB_NAMES) == len(TABS) and TAB_NAMES[_COMPARE_TAB] == "compare"  # a link names each tab
 
 
 def _lazy_tabs(state, views):
@@ -556,7 +558,14 @@ def _lazy_tabs(state, views):
         if state.pinned:
             build(_COMPARE_TAB)
 
-    tabs.param.watch(lambda event: show(event.new), "active")
+    def opened(event):
+        show(event.new)
+        if 0 <= event.new < len(TAB_NAMES):
+            state.tab = TAB_NAMES[event.new]  # into the address: a link opens on the tab it was made from
+
+    tabs.active = TAB_NAMES.index(state.tab)  # a link's tab (?tab=compare): built and shown from the start
+    tabs.param.watch(opened, "active")
+    state.param.watch(lambda event: setattr(tabs, "active", TAB_NAMES.index(event.new)), "tab")  # back, forward
     state.param.watch(pinned, "pinned")
     show(tabs.active)
     pinned()
@@ -634,7 +643,7 @@ def create_app(scene=None):
         else:
             if not _offer_linked_chart(state, pn.state.location.search):
                 chart_refused.append(state.message)
-            _sync_address(state, URL_PARAMETERS + VIEW_PARAMETERS + COMPARE_PARAMETERS, on_error)
+            _sync_address(state, URL_PARAMETERS + VIEW_PARAMETERS + COMPARE_PARAMETERS + PAGE_PARAMETERS, on_error)
     views = {"state": state}
     views["results"] = results = ResultsView(state)
     # the messages quote what users typed, linked or uploaded: shown as text (``md_text``), never as markup

@@ -51,7 +51,7 @@ from camsim_core.review.sweep import check_sweep
 from camsim_core.metrics.viewing import parse_viewing
 
 __all__ = ["ExplorerState", "Runner", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_PARAMETERS", "COMPARE_PARAMETERS",
-           "VIEW_PARAMETERS",
+           "VIEW_PARAMETERS", "PAGE_PARAMETERS", "TAB_NAMES",
            "parse_tile", "parse_numbers", "load_upload", "ServerLimits", "LIMITS", "json_depth", "exposure_warnings",
            "mean_level"]
 
@@ -68,6 +68,10 @@ URL_PARAMETERS = (
 COMPARE_PARAMETERS = ("pinned", "sweep")
 #: How the result is shown, kept in links and parameters files beside the design (not part of it).
 VIEW_PARAMETERS = tuple(_design.VIEW_SETTINGS)
+#: The page's own part of a link (not in parameters files): the tab shown.
+PAGE_PARAMETERS = ("tab",)
+#: The tabs of the page, in order, by the names a link gives them (``?tab=compare``).
+TAB_NAMES = ("results", "scene", "camera", "quality", "compare", "experiments", "optics")
 
 
 from camsim_core.scene.charts import CHART_NAMES as _CHART_NAMES  # noqa: E402
@@ -274,6 +278,8 @@ class ExplorerState(param.Parameterized):
     # the comparison (app.compare): pinned designs [{name, params}] and the sweep {parameter, values}
     pinned = param.List(default=[], precedence=-1, doc="Pinned designs (at most four)")
     sweep = param.Dict(default=None, allow_None=True, precedence=-1, doc="The sweep shown in the comparison")
+    # the page: the tab shown, kept in the address so that a link (a comparison shared) opens where it was made
+    tab = param.Selector(default="results", objects=list(TAB_NAMES), precedence=-1, doc="The tab shown")
     # outputs (not user parameters)
     result = param.Parameter(default=None, precedence=-1, doc="Last good pipeline result")
     message = param.String(default="", precedence=-1, doc="Last problem, for the page's alert")

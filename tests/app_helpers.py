@@ -230,6 +230,15 @@ _ALERT_JS = ("() => {" + _DEEP_JS + "const box = select('.camsim-alert')[0]; if 
              " return select('.camsim-alert p').map(el => el.innerText).join(' '); }")
 
 
+_ACTIVE_TAB_JS = ("() => {" + _DEEP_JS + "const tab = select('.bk-tab').find(el => el.classList.contains('bk-active'));"
+                  " return tab ? tab.textContent : null; }")
+
+
+def active_tab(page):
+    """The title of the tab ``page`` shows (None before the tabs are drawn)."""
+    return _pw(page).evaluate(_ACTIVE_TAB_JS)
+
+
 def inner_texts(page, css):
     """The inner texts of the elements ``css`` selects in ``page`` (shadow roots included), joined by spaces:
     Playwright's ``locator(css).all_inner_texts()`` in one call."""

@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from app_helpers import ARTIFACTS, POLL, TIMEOUT, Page, eventually, next_frames, wait_until
+from app_helpers import ARTIFACTS, POLL, TIMEOUT, Page, active_tab, eventually, next_frames, wait_until
 from camsim_core.review import evaluate_design
 
 pytestmark = pytest.mark.browser
@@ -131,18 +131,25 @@ def test_two_pinned_designs_side_by_side(compared, engine):
     page.page.locator(".camsim-tabs").first.screenshot(path=str(ARTIFACTS / "compare-tab.png"))  # docs/compare.png
 
 
-def test_a_link_reproduces_the_comparison(browser, compared):
+
+
+def test_a_link_reproduces_the_comparison_and_opens_on_it(browser, compared):
+    """A link made on the Compare tab opens on it (the tab is in the address): whoever opens a comparison shared
+    sees it, without finding the tab; a tab opened later is written into the address in turn."""
     page = compared
-    page.page.wait_for_function("() => window.location.search.includes('pinned=')", timeout=30000)
+    page.page.wait_for_function("() => window.location.search.includes('pinned=')"
+                                " && window.location.search.includes('tab=compare')", timeout=30000)
     url = page.page.url
     first = compare_status(page)
     second = Page(browser, url)
     try:
-        open_tab(second)
+        assert active_tab(second) == "Compare designs"  # no click: the link's tab
         s = wait_compare(second, lambda s: [d["name"] for d in s["designs"]] == ["DCS-200", "human cones"]
                          and not s["busy"])
         second.shot("compare-shared-link")
         assert s["designs"] == first["designs"] and s["differ"] == ["camera"]
+        second.page.locator(".bk-tab").filter(has_text="Scene").first.click()
+        second.page.wait_for_function("() => window.location.search.includes('tab=scene')", timeout=30000)
         assert second.errors() == []
     finally:
         second.close()

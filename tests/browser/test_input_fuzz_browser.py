@@ -24,8 +24,9 @@ from urllib.parse import urlencode
 
 import pytest
 
-from app_helpers import TIMEOUT, Page, inner_texts, server_log, wait_until
-from camsim_explorer.state import URL_PARAMETERS
+from app_helpers import TIMEOUT, Page, active_tab, inner_texts, server_log, wait_until
+from camsim_explorer.main import TABS
+from camsim_explorer.state import PAGE_PARAMETERS, TAB_NAMES, URL_PARAMETERS
 
 pytestmark = pytest.mark.browser
 
@@ -56,6 +57,9 @@ TEXT_BOXES = {
 #: names one or the other). An emptied box means "the camera's own": accepted.
 SENSOR_BOXES = {"w-sensor-well": ("Full well", "full_well_e"), "w-sensor-read": ("Read noise", "read_noise_e"),
                 "w-sensor-pitch": ("Pixel pitch", "pixel_pitch_um")}
+
+#: The tabs' titles, in the order of their names in a link (``TAB_NAMES``).
+TAB_TITLES = [title for title, _ in TABS]
 
 FIND_TRACEBACK_JS = """() => { let hit = false; const walk = root => { for (const el of root.querySelectorAll('*')) {
     if (el.shadowRoot) walk(el.shadowRoot); } if ((root.textContent || '').includes('Traceback')) hit = true; };
@@ -218,13 +222,15 @@ def test_a_link_value_is_applied_or_named_never_dropped(browser, server, kind):
     value = LINK_VALUES[kind]
     # 10,000 characters in every parameter would be a 230 KB address, past what a server reads of a request
     # (Tornado's 64 KB of headers: the connection is closed); five of them are 50 KB
-    names = URL_PARAMETERS[::5] if len(value) > 1000 else URL_PARAMETERS
+    every = URL_PARAMETERS + PAGE_PARAMETERS
+    names = every[::5] if len(value) > 1000 else every
     query = {name: value for name in names}
     page = Page(browser, server + "?" + urlencode(query))
     try:
         s = _settled(page)
         message = page.alert_text()
-        unnamed = [name for name in names if name not in message and str(s["params"][name]) != value]
+        shown = dict(s["params"], tab=TAB_NAMES[TAB_TITLES.index(active_tab(page))])
+        unnamed = [name for name in names if name not in message and str(shown[name]) != value]
         if value == "":
             # an empty value is no value: Panel leaves the parameter as it was (the page opens on the defaults)
             assert s["params"]["camera"] == "kodak-dcs200-ir" and s["params"]["noise_sigma"] == 0

@@ -29,7 +29,7 @@ import pytest
 import scipy.io
 
 from app_helpers import ARTIFACTS, POLL, STATUS_JS, TIMEOUT, inner_texts, new_page, wait_until
-from camsim_explorer.state import COMPARE_PARAMETERS, URL_PARAMETERS
+from camsim_explorer.state import COMPARE_PARAMETERS, PAGE_PARAMETERS, URL_PARAMETERS
 
 pytestmark = pytest.mark.browser
 
@@ -47,7 +47,7 @@ FOCUS = "<input autofocus onfocus=__pwned=7>"
 #: page's alert, together in one message (of at most 300 characters: the later values of a long link are cut);
 #: a text the engine refuses (the sensor's fields: in the comparison's link below) is quoted by the engine's message.
 LINKS = {
-    "selectors": ({"camera": IMG, "monitor": SVG, "optics": SCRIPT, "gaussian_centers": MDLINK},
+    "selectors": ({"camera": IMG, "monitor": SVG, "optics": SCRIPT, "gaussian_centers": MDLINK, "tab": IMG},
                   [IMG, SVG, SCRIPT, MDLINK]),
     "more selectors": ({"scene": "upload:" + SVG, "mosaic": DETAILS, "demosaic_method": FOCUS, "custom_tile": MDLINK,
                         "gaussian_widths": JSLINK}, ["upload:" + SVG, DETAILS, FOCUS, MDLINK, JSLINK]),
@@ -168,7 +168,7 @@ def _link(server, query):
 def test_every_link_parameter_is_covered():
     """The links below put a payload into every parameter the explorer reads from its address."""
     covered = {k for query, _ in LINKS.values() for k, v in query.items() if "pwned" in v}
-    assert covered | {"sensor", "pinned", "sweep"} == set(URL_PARAMETERS) | set(COMPARE_PARAMETERS)
+    assert covered | {"sensor", "pinned", "sweep"} == set(URL_PARAMETERS) | set(COMPARE_PARAMETERS) | set(PAGE_PARAMETERS)
 
 
 @pytest.fixture(scope="module")
