@@ -651,10 +651,12 @@ class CompareView:
                 if result is None:
                     result = evaluate_design(params, p["name"], scene=scene, pipeline=pipeline, quality="later")
                     later.append((params, result))
-                self.store.put(key, params, result)
+                # once: the plots the first update will show, made before the design is stored (an update on the
+                # event loop that finds a design finds its plots made)
+                self._prebuild(_aspect(result.rendered))
                 self._prepare_design(result, self.state.metric)
+                self.store.put(key, params, result)
                 self.errors.pop(p["name"], None)
-                self._prebuild(_aspect(result.rendered))  # once: the plots the first update will show
             except CamsimError as exc:
                 self.errors[p["name"]] = str(exc)
             except Exception as exc:  # never a dead page
@@ -840,7 +842,12 @@ class CompareView:
         maps = [r.error_map(metric) for r in results if r.error_map(metric) is not None]
         top = scale_top([self._prepared("top", m) for m in maps if np.size(m)]) if maps else 20.0
         self.table.object = self._table(results)
-        if not (self._built or self.state.pinned):  # only the live design: its table, no plots yet
+        key = self._scene_key()
+        if not self._built and self._prebuilt is None and not any(
+                self.store.get(key, p["params"]) is not None for p in self.state.pinned):
+            # only the live design (nothing pinned, or the pinned designs still computing): its table, no plots
+            # yet. The worker computing them makes the plots with the first one (a dozen figures: 0.4-0.6 s that
+            # on the event loop held every session's page as long, when a link's page opened on this tab)
             self.views[:] = [self.table]
             self._status(results, top)
             return
