@@ -842,12 +842,7 @@ class CompareView:
         maps = [r.error_map(metric) for r in results if r.error_map(metric) is not None]
         top = scale_top([self._prepared("top", m) for m in maps if np.size(m)]) if maps else 20.0
         self.table.object = self._table(results)
-        key = self._scene_key()
-        if not self._built and self._prebuilt is None and not any(
-                self.store.get(key, p["params"]) is not None for p in self.state.pinned):
-            # only the live design (nothing pinned, or the pinned designs still computing): its table, no plots
-            # yet. The worker computing them makes the plots with the first one (a dozen figures: 0.4-0.6 s that
-            # on the event loop held every session's page as long, when a link's page opened on this tab)
+        if not (self._built or self.state.pinned):  # only the live design: its table, no plots yet
             self.views[:] = [self.table]
             self._status(results, top)
             return
@@ -948,7 +943,10 @@ class CompareView:
             if self._ab_inputs is inputs:
                 self._show_ab(a, b, metric, outcome)
 
-        if off_the_loop(lambda: _ab_shown(a, b, metric), made, lambda exc: f"{type(exc).__name__}: {exc}"):
+        # and shown once the tab is: a difference made after the student left the tab waits, as the tab's other
+        # updates do (its views are out of the page meanwhile)
+        shown = lambda outcome: self._when_shown(lambda: made(outcome))()  # noqa: E731
+        if off_the_loop(lambda: _ab_shown(a, b, metric), shown, lambda exc: f"{type(exc).__name__}: {exc}"):
             self.ab_text.object = "Computing the A/B difference..."
 
     def _show_ab(self, a, b, metric, outcome):

@@ -563,15 +563,30 @@ def _lazy_tabs(state, views):
         if 0 <= event.new < len(TAB_NAMES):
             state.tab = TAB_NAMES[event.new]  # into the address: a link opens on the tab it was made from
 
-    tabs.active = TAB_NAMES.index(state.tab)  # a link's tab (?tab=compare): built and shown from the start
     tabs.param.watch(opened, "active")
     state.param.watch(lambda event: setattr(tabs, "active", TAB_NAMES.index(event.new)), "tab")  # back, forward
     state.param.watch(pinned, "pinned")
     show(tabs.active)
     pinned()
+    _open_linked_tab(tabs, TAB_NAMES.index(state.tab), doc)
     views["tabs"] = tabs
     views["restyle_tab"] = lambda: restyle(tabs.active)  # after a change of theme (presentation mode)
     return tabs
+
+
+def _open_linked_tab(tabs, index, doc):
+    """Show the tab a link names (``?tab=compare``), once the page's session is live.
+
+    The page is built on the Results tab and switches on its session's first tick, as a student's click
+    would: built on the Compare tab, the tab's plots added when its designs came reached the browser
+    after changes to them, during the page's first messages ("reference ... isn't known" in the page,
+    one link in three on a loaded machine)."""
+    if index == tabs.active:
+        return
+    if doc is not None and doc.session_context is not None and getattr(doc.session_context, "session", None) is None:
+        doc.add_next_tick_callback(lambda: setattr(tabs, "active", index))
+    else:
+        tabs.active = index
 
 
 def _new_state(scene):

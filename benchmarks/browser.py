@@ -194,7 +194,7 @@ _COMPARE_ACT = "([button, want]) => {" + _DEEP + _COMPARE_STATUS + """
         return;
       }
       if (shown === null) shown = performance.now() - t0;
-      if (want.measured && compareStatus().measuring.length) return;  // and the table's quality measures in
+      if (want.measured && (compareStatus().measuring || []).length) return;  // and the table's quality measures in
       clearInterval(timer);
       requestAnimationFrame(() => resolve(want.measured ? [shown, performance.now() - t0] : performance.now() - t0));
     }, 10);

@@ -488,31 +488,3 @@ def test_a_pinned_design_is_shown_before_its_image_quality_measures_which_follow
     assert f'data-value="{cones["ssim"]!r}"' in view.table.object and f'data-value="{cones["psnr_db"]!r}"' in view.table.object
     assert len(module.SHARED_DESIGNS) == 1 and counted == ["human-cones"]
 
-
-def test_the_tabs_plots_are_made_by_the_worker_not_by_an_update_while_the_designs_compute(counted, monkeypatch):
-    """A link's page opened on the Compare tab updated it (the live result came) while its pinned designs were
-    computing, and made the tab's dozen figures there, on the event loop: 0.4-0.6 s that held every session's
-    page. While no pinned design is computed the tab shows the live design's table; the worker computing
-    them makes the plots, before it stores the first design, so an update that finds a design finds them."""
-    import threading
-
-    view = CompareView(ExplorerState(start=False))
-    work, ticks, made = [], [], []
-    monkeypatch.setattr(view, "_compute", lambda *args: work.append(args))  # run below, in a thread of its own
-    monkeypatch.setattr(view, "_schedule", ticks.append)  # what the worker hands the page's event loop
-    real = view._make_plots
-    monkeypatch.setattr(view, "_make_plots", lambda *a: made.append(threading.current_thread().name) or real(*a))
-    monkeypatch.setattr(CompareView, "update_ab", lambda self, results=None: None)  # the A/B map: not this test's
-    view.state.pinned = _pinned_entries("human-cones")
-    assert view._computing and len(work) == 1
-    view.state.recompute()  # the live result comes while the design computes: the tab is updated
-    view.update()
-    assert made == [] and not view._built and list(view.views) == [view.table]
-    worker = threading.Thread(target=CompareView._compute, args=(view, *work[0]), name="camsim-compare")
-    worker.start()
-    worker.join(60)
-    assert made == ["camsim-compare"]  # the plots, made by the worker
-    for tick in ticks:
-        tick()
-    assert view._built and made == ["camsim-compare"] and counted == ["human-cones"]
-    assert [d["name"] for d in json.loads(view.status.object)["designs"]][-1] == "human-cones"
