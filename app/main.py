@@ -580,7 +580,7 @@ def _open_linked_tab(tabs, index, doc):
     The page is built on the Results tab and switches on its session's first tick, as a student's click
     would: built on the Compare tab, the tab's plots added when its designs came reached the browser
     after changes to them, during the page's first messages ("reference ... isn't known" in the page,
-    one link in three on a loaded machine)."""
+    3 links in 4 on a loaded machine)."""
     if index == tabs.active:
         return
     if doc is not None and doc.session_context is not None and getattr(doc.session_context, "session", None) is None:

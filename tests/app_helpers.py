@@ -234,6 +234,15 @@ _ACTIVE_TAB_JS = ("() => {" + _DEEP_JS + "const tab = select('.bk-tab').find(el 
                   " return tab ? tab.textContent : null; }")
 
 
+_PANE_TEXT_JS = ("css => {" + _DEEP_JS + "const e = select(css)[0]; if (!e) return ''; const r = e.shadowRoot || e;"
+                 " return (r.querySelector('.markdown') || r.querySelector('div') || e).innerText; }")
+
+
+def pane_text(page, css):
+    """The rendered text of the first pane ``css`` selects in ``page`` ("" when there is none), in one call."""
+    return _pw(page).evaluate(_PANE_TEXT_JS, css)
+
+
 def active_tab(page):
     """The title of the tab ``page`` shows (None before the tabs are drawn)."""
     return _pw(page).evaluate(_ACTIVE_TAB_JS)

@@ -547,6 +547,8 @@ def evaluate_design(params, name="design", *, scene=None, pipeline=None, metrics
     CamsimError
         When the engine refuses the design; the message names the design and the failed step.
     """
+    if quality not in (True, False, "later"):
+        raise ParameterError("quality", f"True, False or 'later' (got {repr(quality)[:40]})")
     if scene is None:
         p = check_params(params, name)
         scene_obj = scene_from_params(p)
@@ -558,8 +560,6 @@ def evaluate_design(params, name="design", *, scene=None, pipeline=None, metrics
         camera = camera_from_params(p)
     except CamsimError as exc:
         raise CamsimError(f"{name}: {exc}") from None
-    if quality not in (True, False, "later"):
-        raise ParameterError(f"quality: True, False or 'later' (got {quality!r})")
     proc = processing_from_params(p, metrics=metrics)
     res = (pipeline or Pipeline()).run(scene_obj, camera, proc)
     out = result_from_pipeline(res, p, name, proc, quality=quality is True)

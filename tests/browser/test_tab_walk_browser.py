@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import pytest
 
-from app_helpers import Page, cut_titles, eventually, server_log, shown_titles
+from app_helpers import Page, cut_titles, eventually, pane_text, server_log, shown_titles
 
 pytestmark = pytest.mark.browser
 
@@ -37,18 +37,6 @@ CHANGES = [("w-scene", "macbeth"), ("w-camera", "gaussian-3"), ("w-scene", "slan
 CHARTS = ("macbeth", "slanted-edge", "zone-plate", "stripes")
 #: The electron-level cameras among CHANGES: the Optics & sensor tab plots their photon transfer.
 PHOTON_CAMERAS = ("imx174",)
-
-#: JS: the text of the first pane ``css`` selects (a Markdown pane's rendered text), "" when there is none; one call
-#: into the page per look (a wait polls it).
-PANE_TEXT_JS = ("css => { const find = (root) => { const hit = root.querySelector(css); if (hit) return hit;"
-                " for (const el of root.querySelectorAll('*')) if (el.shadowRoot) { const f = find(el.shadowRoot);"
-                " if (f) return f; } return null; }; const e = find(document); if (!e) return '';"
-                " const r = e.shadowRoot || e; return (r.querySelector('.markdown') || r.querySelector('div') || e).innerText; }")
-
-
-def _pane_text(page, css):
-    return page.page.evaluate(PANE_TEXT_JS, css)
-
 
 def _open(page, title):
     page.page.locator(".camsim-tabs .bk-tab").filter(has_text=title).first.click()
@@ -63,22 +51,22 @@ def _check_tab(page, title, want):
 
     def check():
         if title == "Scene":
-            text = _pane_text(page, ".camsim-scene-meta")
+            text = pane_text(page, ".camsim-scene-meta")
             assert f"Name\t{want['scene']}" in text, text[:200]
         elif title == "Camera":
-            text = _pane_text(page, ".camsim-camera-info")
+            text = pane_text(page, ".camsim-camera-info")
             assert text.startswith(want["camera"] + " ·"), text[:200]
             assert f"{rows} x {cols}" in text or f"{cols} x {rows}" in text, (text[:200], s["shape"])
         elif title == "Image quality":
-            text = _pane_text(page, ".camsim-quality")
+            text = pane_text(page, ".camsim-quality")
             assert f"mean dE*ab {s['mean_de']:.2f}" in text, (text[-200:], s["mean_de"])
         elif title == "Optics & sensor":
-            text = _pane_text(page, ".camsim-physical-table")
+            text = pane_text(page, ".camsim-physical-table")
             assert f"exposure\t{s['params']['exposure']:.6g}\ts" in text, (text[-120:], s["params"]["exposure"])
         elif title == "Compare designs":
-            assert "Pin designs" in _pane_text(page, ".camsim-sweep-message")
+            assert "Pin designs" in pane_text(page, ".camsim-sweep-message")
         elif title == "Experiments":
-            assert "Figure 1.14" in _pane_text(page, ".camsim-exp-message")
+            assert "Figure 1.14" in pane_text(page, ".camsim-exp-message")
         titles = shown_titles(page)  # the plots each tab draws for this design are there before their titles count
         if title == "Optics & sensor":
             assert any(t.startswith(f"Diffraction MTF at f/{s['params']['f_stop']:g} ") for t in titles), titles

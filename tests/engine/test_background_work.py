@@ -81,3 +81,25 @@ def test_a_sweep_computes_its_points_as_background_work(monkeypatch):
     assert len(points) == 2 and all(p.error == "stop here" for p in points)
     assert seen and all(depth == 1 and nice >= BACKGROUND_NICE for depth, nice in seen)
     assert os.getpriority(os.PRIO_PROCESS, 0) == base  # the caller's own thread keeps its priority
+
+
+def test_quality_measures_left_for_later_are_the_same_numbers_measured_as_background_work(monkeypatch):
+    """A pinned design's image-quality measures, left for later and measured as background work (one core, lower
+    priority), are the numbers measured with the design; a quality that is neither is refused by name."""
+    import camsim_core.review.design as design
+
+    params = {"scene": "macbeth", "camera": "kodak-dcs200"}
+    now = design.evaluate_design(params, quality=True).quality
+    later = design.evaluate_design(params, quality="later")
+    assert later.quality == {} and later.quality_pending
+    seen = []
+    real = design.quality_measures
+    monkeypatch.setattr(design, "quality_measures", lambda *a: seen.append(
+        (_parallel._local.depth, os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))) or real(*a))
+    measured = _in_thread(lambda: later.measure_quality(background=True))
+    assert measured == now and set(now) == {"psnr_db", "ssim", "macbeth_de2000"}
+    assert not later.quality_pending and later.quality_inputs is None  # the pipeline result is released
+    assert len(seen) == 1 and seen[0][0] == 1 and seen[0][1] >= BACKGROUND_NICE
+    assert later.measure_quality() is later.quality and len(seen) == 1  # measured once
+    with pytest.raises(design.ParameterError, match="quality"):
+        design.evaluate_design(params, quality="soon")
