@@ -698,20 +698,25 @@ def create_app(scene=None):
     diagnostics = pn.Column(show_diagnostics, results.status, sizing_mode="stretch_width",
                             css_classes=["camsim-diagnostics"])
     intro = pn.pane.Markdown(START_HERE, css_classes=["camsim-start"], sizing_mode="stretch_width")
-    body = pn.Column(alert, notice, intro, tabs, diagnostics, sizing_mode="stretch_width")
+    # The alert and the notice are roots of their own (the template makes one of each item of ``main``), not
+    # children of the page's body: a change of a root's size makes the browser lay out that root again, and
+    # the body holds every view (one layout of it: 80-160 ms of a 2-core machine's browser). Shown, hidden or
+    # reworded, they now cost a layout of themselves (5-15 ms); the body below moves down with the page.
+    body = pn.Column(intro, tabs, diagnostics, sizing_mode="stretch_width")
     body.state = state
     controls = _controls(state, results)
     _undelayed(controls)
     template = _Template(
         title="camsim explorer: a camera design on a hyperspectral scene",
         sidebar=[present, *controls],
-        main=[body],
+        main=[notice, body, alert],
         sidebar_width=330,
         favicon=FAVICON,
         busy_indicator=None,  # the result panes show their own state; a header spinner would cost two messages per change
         design=_Design,
     )
     template.state = state  # for tests and notebooks
+    template.body = body  # the page's body: its tabs and diagnostics (the alert and the notice are beside it)
     if pn.state.curdoc is not None and pn.state.curdoc.session_context is not None:
         pn.state.on_session_destroyed(lambda ctx, state=state, page=body, template=template:
                                       _release(state, page, template))

@@ -50,19 +50,29 @@ _SCENE_RGB = {}
 
 #: A computation still running after this long marks the views' grid as busy (ms).
 BUSY_DELAY_MS = 250
-#: The views' grid marked busy (``loading``) shows a still "Computing..." label over its dimmed content instead
-#: of Panel's animated spinner: an animated spinner repaints at the screen's frame rate, and six of them (one a
-#: view, before the grid was marked as one)
-#: kept half a core of the browser busy for as long as a result was computing (measured: 2.4 CPU-s per
-#: 5 s, against 0.04 idle), which on a machine serving the page made the result itself come later.
+#: The views' grid, marked busy, shows a still "Computing..." label over its dimmed content: the look of Panel's
+#: ``loading`` without its animated spinner (an animated spinner repaints at the screen's frame rate, and six of
+#: them, one a view before the grid was marked as one, kept half a core of the browser busy for as long as a
+#: result was computing: 2.4 CPU-s per 5 s, against 0.04 idle). The mark is two custom properties set in the
+#: grid's ``styles`` (:data:`BUSY_STYLES`), not a class: Bokeh lays the whole page body out again when an
+#: element's classes change (80-160 ms of a 2-core machine's browser, twice a long computation, while the
+#: engine computes beside it), and only restyles it when its ``styles`` change.
 STILL_BUSY_CSS = """
-:host(.pn-loading):before, .pn-loading:before {
-  -webkit-mask-image: none !important; mask-image: none !important; animation: none !important;
-  content: 'Computing...' !important; width: auto !important; height: auto !important;
-  background-color: rgba(255, 255, 255, 0.9) !important; color: #333; font-size: 1em;
+:host::after {
+  content: var(--camsim-busy-veil, none); cursor: progress; position: absolute; top: 0; left: 0;
+  width: 100%; height: 100%; z-index: 1000; background-color: rgba(255, 255, 255, 0.5);
+}
+:host::before {
+  content: var(--camsim-busy, none); position: absolute; top: 50%; left: 50%; transform: translate(-50%, -50%);
+  z-index: 1001; background-color: rgba(255, 255, 255, 0.9); color: #333; font-size: 1em;
   padding: 2px 10px; border-radius: 4px; border: 1px solid #bbb;
 }
 """
+#: The grid's ``styles`` while a newer result is computed (:data:`STILL_BUSY_CSS` draws them), and otherwise
+#: (the browser keeps a property it was given until it is given another value: an empty ``styles`` would not
+#: take the mark off).
+BUSY_STYLES = {"--camsim-busy": "'Computing...'", "--camsim-busy-veil": "''"}
+IDLE_STYLES = {"--camsim-busy": "none", "--camsim-busy-veil": "none"}
 #: The image frames keep their shape while the image's aspect ratio stays within this factor of theirs
 #: (a distance change, which keeps the scene's aspect until the sensor crops it).
 ASPECT_TOLERANCE = 1.1
@@ -672,7 +682,8 @@ class ResultsView:
         p = self.panes
         # the views in a grid, marked busy as one (see _show_computing)
         self.grid = pn.GridBox(p["raw"], p["demosaiced"], p["rendered"], p["ideal"], p["de"], p["hist"], ncols=3,
-                               sizing_mode="stretch_width", css_classes=["camsim-grid"], stylesheets=[STILL_BUSY_CSS])
+                               sizing_mode="stretch_width", css_classes=["camsim-grid"], stylesheets=[STILL_BUSY_CSS],
+                               styles=IDLE_STYLES)
         # HTML, not Markdown: these change with every result, and need no parsing
         self.stats = Text("", ["camsim-stats"], margin=(0, 10))
         self.warnings = Text("", ["camsim-warnings"], margin=(0, 10))
@@ -975,11 +986,11 @@ class ResultsView:
         res = self.state.result
         busy = bool(self.state.computing)
         self._busy_shown = busy
-        # One mark over the views' grid: each change of a mark makes the browser lay the whole page out again
-        # (50-60 ms on a 2-core machine), and a mark per view made six of them to show a computation and six
-        # more to end it (0.6-0.7 s of a chart pick's 1.1 s).
-        if self.grid.loading != busy:
-            self.grid.loading = busy
+        # One mark over the views' grid (a mark per view made six of them to show a computation and six more to
+        # end it), set in its styles, which the browser applies without laying the page out (STILL_BUSY_CSS).
+        styles = BUSY_STYLES if busy else IDLE_STYLES
+        if self.grid.styles != styles:
+            self.grid.styles = styles
         if res is None or res.raw is None:
             return
         label, mean, med = getattr(self, "res_summary", (self.state.metric, None, None))

@@ -450,7 +450,22 @@ def cut_titles(page):
 
 
 def loading_count(page):
-    """How many elements show Panel's loading state (class pn-loading), shadow roots included."""
+    """How many elements show a busy mark, shadow roots included: the explorer's (``--camsim-busy`` in an
+    element's styles, other than ``none``: the views' grid draws it as a "Computing..." label over its
+    content) or Panel's loading state (class pn-loading)."""
     return page.page.evaluate("""() => { let n = 0; function walk(root) {
-        for (const el of root.querySelectorAll('*')) { if (el.classList.contains('pn-loading')) n++;
+        for (const el of root.querySelectorAll('*')) {
+          const mark = el.style.getPropertyValue('--camsim-busy').trim();
+          if (el.classList.contains('pn-loading') || (mark && mark !== 'none')) n++;
           if (el.shadowRoot) walk(el.shadowRoot); } } walk(document); return n; }""")
+
+
+_BUSY_LABEL_JS = ("() => {" + _DEEP_JS + "return select('.camsim-grid').map(el => "
+                  "[getComputedStyle(el, '::before').content, getComputedStyle(el, '::after').content]); }")
+
+
+def busy_label(page):
+    """What the views' grid draws over its content: ``[label, veil]``, the computed ``content`` of its
+    ``::before`` and ``::after`` (CSS strings such as ``'"Computing..."'``; ``'none'`` when not busy)."""
+    found = _pw(page).evaluate(_BUSY_LABEL_JS)
+    return found[0] if found else None

@@ -691,4 +691,4 @@ def test_diagnostics_show_only_while_their_box_is_ticked():
         box.value = False
         assert shown.visible is False
     finally:
-        _release(template.state, template.main[0], template)
+        _release(template.state, template.body, template)

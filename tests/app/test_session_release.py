@@ -32,7 +32,7 @@ def test_a_released_session_is_freed_with_its_widgets():
     from panel.links import Callback
 
     template = create_app()
-    state, body = template.state, template.main[0]
+    state, body = template.state, template.body
     mine = {id(o) for root in [body, *template.sidebar] for o in root.select()}
     assert any(id(k) in mine for k in Callback.registry.keys())  # the sliders' links are registered
     ref = weakref.ref(state)
