@@ -21,7 +21,7 @@ from __future__ import annotations
 from typing import NamedTuple, Sequence
 
 from bokeh.events import Tap
-from bokeh.models import ColumnDataSource, Legend, LegendItem, Range1d, Span
+from bokeh.models import ColumnDataSource, DataRange1d, Legend, LegendItem, Range1d, Span
 from bokeh.plotting import figure
 
 from .views import held
@@ -106,11 +106,10 @@ class CurvesPlot:
     def __init__(self, title="", x_label="", y_label="", *, frame_width=420, frame_height=240, x_range=None,
                  y_range=None, legend_location="top_right", points=False, marks=0, on_click=None, doc=None,
                  css_classes=(), tools="pan,wheel_zoom,box_zoom,reset,save"):
-        ranges = {}
-        if x_range is not None:
-            ranges["x_range"] = Range1d(*x_range)
-        if y_range is not None:
-            ranges["y_range"] = Range1d(*y_range)
+        # Ranges fitted to the curves shown only: a slot hidden when fewer curves are shown keeps its last data,
+        # which Bokeh's default ranges would still fit.
+        ranges = {"x_range": Range1d(*x_range) if x_range is not None else DataRange1d(only_visible=True),
+                  "y_range": Range1d(*y_range) if y_range is not None else DataRange1d(only_visible=True)}
         # a title is never empty: a title set later on a figure made with an empty one was not drawn (Bokeh 3.9)
         self.figure = figure(frame_width=frame_width, frame_height=frame_height, tools=tools, toolbar_location="right",
                              title=title or " ", x_axis_label=x_label, y_axis_label=y_label, **ranges)
@@ -120,6 +119,10 @@ class CurvesPlot:
         self.figure.add_layout(self.legend)
         self._points = bool(points)
         self.sources, self.lines, self.points, self.marks = [], [], [], []
+        # With no curve shown, fitted ranges have nothing to fit: the browser logged "could not set initial
+        # ranges" for each empty plot drawn. An undrawn unit square gives them an extent until a curve comes.
+        self._extent = ColumnDataSource(dict(x0=[0.0], y0=[0.0], x1=[1.0], y1=[1.0]))
+        self.figure.segment("x0", "y0", "x1", "y1", source=self._extent, line_alpha=0)
         # the marks are made with the figure: a Span added to a figure the page has hidden has no view in the
         # browser, whose next change of it then fails ("cannot find a view for Span", the plot not drawn again)
         for _ in range(int(marks)):
@@ -166,6 +169,9 @@ class CurvesPlot:
             for model in models:
                 if model.visible != shown:
                     model.visible = shown
+        extent = [] if curves else [0.0]
+        if list(self._extent.data["x0"]) != extent:
+            self._extent.data = dict(x0=extent, y0=extent, x1=[v + 1.0 for v in extent], y1=[v + 1.0 for v in extent])
         if len(marks) > len(self.marks):
             raise ValueError(f"{len(marks)} marks for a plot made with {len(self.marks)}")
         for i, span in enumerate(self.marks):

@@ -1142,6 +1142,10 @@ class SceneView(TabView):
                       name="camsim-spectra-figure", x_range=DataRange1d(), y_range=DataRange1d(start=0))
         spec.multi_line(xs="xs", ys="ys", line_color="color", line_width=2, source=self.curves,
                         legend_field="label")
+        # the scene's wavelengths at zero radiance, undrawn: an extent for the fitted ranges before any spectrum
+        # is clicked (the browser logged "could not set initial ranges" at each visit of the empty plot)
+        self._extent = ColumnDataSource(dict(x0=[400.0], x1=[700.0], y=[0.0]))
+        spec.segment("x0", "y", "x1", "y", source=self._extent, line_alpha=0)
         spec.legend.location = "top_left"
         spec.legend.background_fill_alpha = 0.6
         spec.add_layout(spec.legend[0], "right")
@@ -1211,6 +1215,7 @@ class SceneView(TabView):
             # names, units and notices come from the scene's file: shown as text
             rows = [f"| {md_text(label)} | {md_text(text)} |" for label, text in scene_facts(d)]
             self.meta.object = "| | |\n|---|---|\n" + "\n".join(rows)
+            self._extent.data = dict(x0=[wls[0]], x1=[wls[-1]], y=[0.0])
             self.reset_spectra()
         plane = np.asarray(scene.data[:, :, k], np.float32)
         top = float(np.percentile(plane, 99.5)) or float(plane.max()) or 1.0
