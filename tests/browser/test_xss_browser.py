@@ -209,14 +209,25 @@ def test_hostile_pinned_designs_and_sweep_are_shown_as_text(browser, server):
         assert DETAILS in tab.wait_text(".camsim-sweep-message p", "Refused")
         table = tab.wait_text(".camsim-compare-table table", IMG)  # the first design's name heads a column
         assert SVG in table  # its custom tile, a parameter that differs from the live design's
-        status = json.loads(tab.page.locator(".camsim-compare-status pre").first.text_content())
+        # the status pane and the unpin list follow the table (a later message): waited for, not read once
+        status = wait_until(lambda: _json(inner_texts(tab.page, ".camsim-compare-status pre")), TIMEOUT,
+                            "the comparison's status lists the pinned designs", until=lambda s: "pinned" in s)
         assert status["pinned"] == [IMG, SCRIPT]
-        options = tab.page.locator(".w-pinned select option").all_inner_texts()
+        options = wait_until(lambda: tab.page.locator(".w-pinned select option").all_inner_texts(), TIMEOUT,
+                             "the unpin list names both designs", until=lambda o: len(o) >= 2)
         assert IMG in options and SCRIPT in options
         tab.assert_safe()
         tab.shot("compare")
     finally:
         tab.close()
+
+
+def _json(text):
+    """The JSON in ``text``, or {} while the pane is still empty."""
+    try:
+        return json.loads(text)
+    except ValueError:
+        return {}
 
 
 def _npz(name):
