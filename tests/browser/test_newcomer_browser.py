@@ -6,7 +6,8 @@ import re
 
 import pytest
 
-from app_helpers import Page, cut_titles, eventually, inner_texts, server_log, shown_titles, wait_until
+from app_helpers import (Page, cut_titles, eventually, inner_texts, pane_text, server_log, settled_shot, shown_titles,
+                         wait_until)
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -246,7 +247,9 @@ def test_presentation_mode_makes_every_control_and_plot_text_readable_at_1920(br
         eventually(titles_whole, timeout=30)
         page.shot("presentation-1920-optics")
         page.page.locator(".bk-tab").filter(has_text="Camera").first.click()
-        page.shot("presentation-1920")
+        # the screenshot once the tab is drawn (taken at the click, it showed the tab still empty)
+        _until(lambda: pane_text(page, ".camsim-camera-info").startswith("kodak-dcs200-ir"), "the Camera tab drawn")
+        settled_shot(page, name="presentation-1920")
         # and back, with the Camera tab open: the sizes a page had before, on that tab and on the tabs opened
         # next (their plots were out of the page when the mode changed: the Results tab's kept their large text)
         page.page.locator(".w-present button").first.click()
