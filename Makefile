@@ -28,9 +28,11 @@ chromium:
 serve: install
 	OPENBLAS_NUM_THREADS=1 $(VENV)/bin/camsim serve --port $(PORT)
 
-# Two workers (pytest-xdist), each test file on one of them: a worker starts one server, a file one browser.
+# Three workers (pytest-xdist) on two cores, each test file on one of them, the longest files first
+# (tests/conftest.py): a browser test's worker waits on its server and its browser much of the time, which a third
+# worker fills. A worker starts one server, a file one browser.
 test: install chromium
-	$(PY) -m pytest -q -rfEs -n 2 --dist loadfile
+	$(PY) -m pytest -q -rfEs -n 3 --dist loadfile --no-loadscope-reorder
 
 # The development loop: the engine and the explorer's state and server, no browser (about a minute).
 test-fast: install

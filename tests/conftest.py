@@ -14,6 +14,39 @@ import pytest
 import camsim_core as cs
 
 
+#: Test files by the time they took (worker seconds, two runs of the whole suite on three workers, 2026-11-27),
+#: longest first. ``make test`` hands whole files to its workers in collection order
+#: (``--dist loadfile --no-loadscope-reorder``): starting the longest first leaves the short ones to fill in at
+#: the end, where xdist's own order (files with the most tests first) left two or three browser files of a
+#: minute or more to run last, on one worker, while the others sat idle. A file missing from the list (new, or
+#: renamed) runs after these, browser files before the others; a stale list costs time, never a test.
+LONGEST_FIRST = (
+    "browser/test_input_fuzz_browser.py", "browser/test_page_serving_browser.py", "browser/test_app_browser.py",
+    "browser/test_newcomer_browser.py", "browser/test_tab_walk_browser.py", "browser/test_xss_browser.py",
+    "app/test_build_off_loop.py", "browser/test_upload_browser.py", "browser/test_app_compare_browser.py",
+    "browser/test_server_hostile_browser.py", "app/test_wheel_install.py", "browser/test_app_monkey.py",
+    "engine/test_scale.py", "engine/test_optics_fused.py", "engine/test_reader_fuzz_images.py",
+    "browser/test_measures_browser.py", "app/test_app_compare.py", "app/test_app_state.py",
+    "engine/test_scielab.py", "app/test_upload_isolation.py", "browser/test_reader_errors_browser.py",
+    "app/test_notebook.py",
+)
+_AREAS = ("browser", "app", "engine")
+
+
+def _file_rank(item):
+    path = item.path.as_posix()
+    rel = path.split("/tests/", 1)[-1]
+    if rel in LONGEST_FIRST:
+        return (0, LONGEST_FIRST.index(rel))
+    area = rel.split("/", 1)[0]
+    return (1, _AREAS.index(area) if area in _AREAS else len(_AREAS))
+
+
+def pytest_collection_modifyitems(config, items):
+    """Longest test files first (:data:`LONGEST_FIRST`); a stable sort, so tests keep their order in a file."""
+    items.sort(key=_file_rank)
+
+
 @pytest.fixture(scope="session")
 def cacaphony():
     return cs.load_scene("cacaphony290")
