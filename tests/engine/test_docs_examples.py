@@ -70,6 +70,18 @@ def test_readme_test_command_is_what_ci_runs():
     assert re.search(r"^test:", makefile, re.M) and re.search(r"^serve:", makefile, re.M)
 
 
+def test_the_longest_test_files_named_first_exist_and_make_test_keeps_their_order():
+    """``tests/conftest.py`` orders the files by ``LONGEST_FIRST``; a renamed file would silently drop to the end,
+    and xdist's own reordering (without ``--no-loadscope-reorder``) would undo the order."""
+    import conftest
+
+    missing = [name for name in conftest.LONGEST_FIRST if not (ROOT / "tests" / name).is_file()]
+    assert missing == [], f"tests/conftest.py LONGEST_FIRST names files that do not exist: {missing}"
+    assert len(set(conftest.LONGEST_FIRST)) == len(conftest.LONGEST_FIRST)
+    recipe = re.search(r"^test:.*\n((?:\t.*\n)+)", (ROOT / "Makefile").read_text(encoding="utf-8"), re.M).group(1)
+    assert "--dist loadfile" in recipe and "--no-loadscope-reorder" in recipe, recipe
+
+
 def github_anchor(heading):
     """The id GitHub gives a Markdown heading: lower case, punctuation (but - and _) dropped, spaces to hyphens."""
     return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
