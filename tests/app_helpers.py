@@ -254,6 +254,21 @@ def inner_texts(page, css):
     return " ".join(_pw(page).evaluate(_TEXTS_JS, css))
 
 
+def compare_status(page):
+    """The Compare designs tab's status (its JSON pane: designs shown, pinned, busy, sweep, ...), read in one call
+    into the page; {} while the pane is empty."""
+    try:
+        return json.loads(inner_texts(page, ".camsim-compare-status pre"))
+    except ValueError:
+        return {}
+
+
+def wait_compare(page, predicate, timeout=3 * TIMEOUT):
+    """Poll the Compare tab's status until ``predicate(status)`` holds; return the status."""
+    return wait_until(lambda: compare_status(page), timeout, "the comparison satisfies the condition",
+                      until=lambda s: bool(s) and predicate(s))
+
+
 def alert_text(page):
     """The text of ``page``'s alert while it is shown ("" when hidden), read in one call."""
     return _pw(page).evaluate(_ALERT_JS)

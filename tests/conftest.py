@@ -7,6 +7,7 @@ their own fixtures in their test files.
 """
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -30,14 +31,19 @@ LONGEST_FIRST = (
     "engine/test_scielab.py", "app/test_upload_isolation.py", "browser/test_reader_errors_browser.py",
     "app/test_notebook.py",
 )
+_RANK = {name: i for i, name in enumerate(LONGEST_FIRST)}
 _AREAS = ("browser", "app", "engine")
+_TESTS = Path(__file__).resolve().parent
 
 
 def _file_rank(item):
-    path = item.path.as_posix()
-    rel = path.split("/tests/", 1)[-1]
-    if rel in LONGEST_FIRST:
-        return (0, LONGEST_FIRST.index(rel))
+    """(0, place in LONGEST_FIRST) for a listed file; (1, its area's place) for the others (doctests last)."""
+    try:
+        rel = item.path.resolve().relative_to(_TESTS).as_posix()
+    except ValueError:  # a doctest of a module outside tests/
+        return (2, 0)
+    if rel in _RANK:
+        return (0, _RANK[rel])
     area = rel.split("/", 1)[0]
     return (1, _AREAS.index(area) if area in _AREAS else len(_AREAS))
 

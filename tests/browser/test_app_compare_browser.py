@@ -1,37 +1,16 @@
 """The Compare designs tab in a real browser: pin DCS-200 and human cones, share the comparison by link,
 sweep noise sigma. Numbers are checked against the engine's results for each configuration alone."""
 
-import json
-import time
-
 import pytest
 
-from app_helpers import ARTIFACTS, POLL, TIMEOUT, Page, active_tab, eventually, next_frames, wait_until
+from app_helpers import (ARTIFACTS, Page, active_tab, compare_status, eventually, next_frames, wait_compare,
+                         wait_until)
 from camsim_core.review import evaluate_design
 
 pytestmark = pytest.mark.browser
 
 CAMERAS = {"DCS-200": "kodak-dcs200-ir", "human cones": "human-cones"}
 SIGMAS = [0.0, 2.0, 4.0, 6.0, 8.0]
-
-
-def compare_status(page):
-    text = page.page.locator(".camsim-compare-status pre").first.text_content() or ""
-    try:
-        return json.loads(text)
-    except ValueError:
-        return {}
-
-
-def wait_compare(page, predicate, timeout=3 * TIMEOUT):
-    deadline = time.monotonic() + timeout
-    while True:
-        s = compare_status(page)
-        if s and predicate(s):
-            return s
-        if time.monotonic() > deadline:
-            raise AssertionError(f"the comparison never satisfied the condition; last: {s}")
-        time.sleep(POLL)
 
 
 def open_tab(page):

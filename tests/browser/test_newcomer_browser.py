@@ -7,7 +7,7 @@ import re
 import pytest
 
 from app_helpers import (Page, cut_titles, eventually, inner_texts, pane_text, server_log, settled_shot, shown_titles,
-                         wait_until)
+                         wait_compare, wait_until)
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
@@ -348,7 +348,7 @@ def test_compare_tab_with_three_cameras_fits_1366_lines_up_images_and_sweeps_onl
     tab scrolled sideways (the third design and its Unpin cut off); a raw JSON block was always shown.
     Defect 7: a noise-sigma sweep drew imx174 (whose noise is its sensor's own) as a flat line with no note,
     and a design's colour differed between the sweep plot and the histogram."""
-    from test_app_compare_browser import open_tab, pin, wait_compare
+    from test_app_compare_browser import open_tab, pin
 
     page = Page(browser, server)
     try:

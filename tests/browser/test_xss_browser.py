@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 import scipy.io
 
-from app_helpers import ARTIFACTS, POLL, STATUS_JS, TIMEOUT, inner_texts, new_page, wait_until
+from app_helpers import ARTIFACTS, POLL, STATUS_JS, TIMEOUT, inner_texts, new_page, wait_compare, wait_until
 from camsim_explorer.state import COMPARE_PARAMETERS, PAGE_PARAMETERS, URL_PARAMETERS
 
 pytestmark = pytest.mark.browser
@@ -210,8 +210,7 @@ def test_hostile_pinned_designs_and_sweep_are_shown_as_text(browser, server):
         table = tab.wait_text(".camsim-compare-table table", IMG)  # the first design's name heads a column
         assert SVG in table  # its custom tile, a parameter that differs from the live design's
         # the status pane and the unpin list follow the table (a later message): waited for, not read once
-        status = wait_until(lambda: _json(inner_texts(tab.page, ".camsim-compare-status pre")), TIMEOUT,
-                            "the comparison's status lists the pinned designs", until=lambda s: "pinned" in s)
+        status = wait_compare(tab, lambda s: "pinned" in s, TIMEOUT)
         assert status["pinned"] == [IMG, SCRIPT]
         options = wait_until(lambda: tab.page.locator(".w-pinned select option").all_inner_texts(), TIMEOUT,
                              "the unpin list names both designs", until=lambda o: len(o) >= 2)
@@ -220,14 +219,6 @@ def test_hostile_pinned_designs_and_sweep_are_shown_as_text(browser, server):
         tab.shot("compare")
     finally:
         tab.close()
-
-
-def _json(text):
-    """The JSON in ``text``, or {} while the pane is still empty."""
-    try:
-        return json.loads(text)
-    except ValueError:
-        return {}
 
 
 def _npz(name):
