@@ -139,3 +139,48 @@ def test_de_view_sends_colours_and_values_and_follows_the_scale():
     fixed, _, _ = sent(view, "de")
     assert not np.array_equal(fixed, image)  # new colours for the new scale
     assert (view.mapper.low, view.mapper.high) == (0.0, 20.0)
+
+
+def test_a_large_results_views_are_made_at_once_on_the_block_threads_with_the_same_numbers(monkeypatch):
+    """``ResultsView.prepare`` makes a frame-sized chart's views on the engine's block threads (each view in
+    one of them): the arrays sent are the ones made in turn, to the bit."""
+    import threading
+
+    import camsim_core._parallel as parallel
+
+    state = ExplorerState()
+    state.scene = "slanted-edge"  # picked: fitted to the default camera's frame, ~860 x 1295 pixels
+    res = state.result
+    assert np.prod(res.raw.data.shape[:2]) * 5 >= parallel.PARALLEL_VALUES  # large enough for the threads
+
+    def prepared():
+        view = ResultsView(state)  # which shows the result at once, in this thread
+        view._memos.clear()
+        view._screens.clear()
+        threads.clear()
+        view.prepare(res)
+        return view
+
+    threads = set()
+    original = ResultsView._raw_view
+
+    def noting(self, raw):
+        threads.add(threading.current_thread().name)
+        return original(self, raw)
+
+    monkeypatch.setattr(ResultsView, "_raw_view", noting)
+    at_once = prepared()
+    assert threads and all(name.startswith("camsim-block") for name in threads), threads
+    monkeypatch.setattr(parallel, "PARALLEL_VALUES", 1 << 62)  # everything in turn, in this thread
+    in_turn = prepared()
+    assert threads == {threading.current_thread().name}
+    assert set(at_once._screens) == set(in_turn._screens) == {"raw", "demosaiced", "rendered", "ideal", "de"}
+    for key, (_, _, (view, columns, block)) in in_turn._screens.items():
+        other_view, other_columns, other_block = at_once._screens[key][2]
+        assert block == other_block
+        np.testing.assert_array_equal(view, other_view)
+        assert set(columns) == set(other_columns)
+        for name in columns:
+            np.testing.assert_array_equal(columns[name], other_columns[name])
+    for name in ("exposure", "flags", "rendered_y", "level", "raw_hash", "rendered_hash"):
+        assert at_once._memos[name][1] == in_turn._memos[name][1], name
