@@ -1,7 +1,10 @@
 """Benchmark: the explorer as a user feels it, from an action in the browser to the updated page.
 
 Starts ``camsim serve`` on 127.0.0.1 (one BLAS thread, as ``make serve`` runs
-it), drives the system Chromium with Playwright and, per action, times from
+it), drives the system Chromium as a user's browser runs (through the DevTools
+protocol's Runtime alone, :mod:`_cdp`: Playwright's Network instrumentation
+copies every WebSocket frame to its driver, a cost no user pays; ``--driver
+playwright`` times the same actions with it on) and, per action, times from
 the moment the widget is changed (its value set and its ``change`` event
 dispatched in the page, on the page's clock) to the frame in which the page shows the
 new result: the status pane reports the new parameters and the stats line
@@ -28,8 +31,8 @@ images shown; each in a new browser context, so nothing is cached): pages opened
 ``FIRST_PAUSE_S`` apart, and pages opened back to back (the server then may not
 have the next page built in advance; the table counts the pages that were).
 
-Usage: ``python benchmarks/browser.py [--repeats N] [--url URL]`` (``--url``
-measures an already running server instead of starting one).
+Usage: ``python benchmarks/browser.py [--repeats N] [--url URL] [--driver cdp|playwright]``
+(``--url`` measures an already running server instead of starting one).
 The machine's load average is printed with the table: on a shared machine,
 read medians, not maxima.
 """
@@ -48,6 +51,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
 from app_helpers import CHROMIUM_ARGS, chromium_path, explorer_server  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _cdp import CdpDriver, PlaywrightDriver  # noqa: E402
+
+#: The browsers the actions can be timed in: Chromium through the DevTools protocol's Runtime alone (as a
+#: user's browser runs), or through Playwright, whose Network instrumentation copies every WebSocket frame.
+DRIVERS = {"cdp": CdpDriver, "playwright": PlaywrightDriver}
 
 #: Goals (median ms) per action.
 GOALS = {"noise": 150, "exposure": 150, "render method": 150, "demosaic method": 150, "distance": 300,
@@ -79,6 +89,21 @@ function camsimStatus() {
   if (!pre) return null;
   try { return JSON.parse(pre.textContent); } catch (e) { return null; }
 }
+function camsimWidget(css, kind) {  // the input or select of the widget with CSS class css
+  const host = deep('.' + css);
+  return host && deep(kind === 'number' ? 'input' : (kind === 'text' ? 'input' : 'select'), host.shadowRoot || host);
+}
+function camsimSet(el, value) {  // as a user's choice or Enter does it: the value, then its change event
+  el.value = String(value);
+  el.dispatchEvent(new Event('change', {bubbles: true}));
+}
+function camsimTab(title) {  // the tab whose title holds the text, or null
+  const all = [];
+  const walk = root => { for (const el of root.querySelectorAll('*')) {
+    if (el.classList.contains('bk-tab')) all.push(el); if (el.shadowRoot) walk(el.shadowRoot); } };
+  walk(document);
+  return all.find(el => el.textContent.includes(title)) || null;
+}
 function camsimStats() {
   const host = camsimHost('camsim-stats');
   if (!host) return '';
@@ -93,7 +118,9 @@ function camsimStats() {
 # so the canvases have drawn the data that arrived in the same message. Nothing polls: a probe that checks
 # every frame keeps the browser producing frames (its compositor and the test driver working ~60 times a
 # second), on the same two cores as the server and the page.
-_ACT = "([el, value, key]) => {" + _DEEP + """
+_ACT = "([css, kind, value, key]) => {" + _DEEP + """
+  const el = camsimWidget(css, kind);
+  if (!el) return {error: `no widget .${css} in the page`};
   const before = camsimStats();
   const hosts = ['camsim-status', 'camsim-stats'].map(camsimHost);
   return new Promise(resolve => {
@@ -113,8 +140,7 @@ _ACT = "([el, value, key]) => {" + _DEEP + """
     const observer = new MutationObserver(check);
     for (const h of hosts) observer.observe(h.shadowRoot || h, {childList: true, characterData: true, subtree: true});
     t0 = performance.now();
-    el.value = String(value);
-    el.dispatchEvent(new Event('change', {bubbles: true}));
+    camsimSet(el, value);
     setTimeout(() => {  // a result that never comes: say what the page shows instead of waiting forever
       if (done) return;
       done = true;
@@ -139,10 +165,6 @@ _FIRST_INIT = "(() => {" + _DEEP + """
     }, 5);
   });
 })();"""
-
-
-def _element(page, css, kind):
-    return page.locator(f".{css} input").first if kind == "number" else page.locator(f".{css} select").first
 
 
 #: (label, status key, widget class, kind, the two values toggled)
@@ -218,10 +240,46 @@ PIN_CAMERAS = ("human-cones", "cie1931", "stockman-sharpe", "kodak-dcs200")
 SWEEP_VALUES = ("0, 1, 2, 3, 4, 5", "0.5, 1.5, 2.5, 3.5, 4.5, 5.5")
 
 
+def _wait(page, test, arg=None, what="condition"):
+    """Wait in the page (a 20 ms timer) until the JavaScript body ``test`` (given ``arg``, with the page
+    helpers of ``_DEEP`` at hand) returns true."""
+    source = "(arg) => new Promise(resolve => {" + _DEEP + _COMPARE_STATUS + """
+      const test = () => { TEST };
+      const t0 = performance.now();
+      const timer = setInterval(() => {
+        let ok = false;
+        try { ok = test(); } catch (e) {}
+        if (ok || performance.now() - t0 > 180000) { clearInterval(timer); resolve(!!ok); }
+      }, 20);
+    })""".replace("TEST", test)
+    if not page.evaluate(source, arg):
+        raise RuntimeError(f"{what}: not within 180 s")
+
+
 def _wait_status(page, key, value):
-    page.wait_for_function("([key, value]) => {" + _DEEP + """
-      const s = camsimStatus(); return s && s.params && s.params[key] === value && !s.computing; }""",
-                           arg=[key, value], timeout=180000)
+    _wait(page, "const s = camsimStatus(); return !!(s && s.params && s.params[arg[0]] === arg[1] && !s.computing);",
+          [key, value], f"status {key} = {value}")
+
+
+def _open_tab(page, title):
+    """Click the tab ``title`` (found through shadow roots, once the page has it), as a user does."""
+    _wait(page, "const t = camsimTab(arg); if (t) t.click(); return !!t;", title, f"the tab {title!r}")
+
+
+def _set(page, css, kind, value):
+    """Set a widget's value as a user does (choice, or text and Enter), untimed."""
+    _wait(page, "return !!camsimWidget(arg[0], arg[1]);", [css, kind], f"the widget .{css}")
+    if not page.evaluate("([css, kind, value]) => {" + _DEEP + """
+      const el = camsimWidget(css, kind); if (!el) return false; camsimSet(el, value); return true; }""",
+                         [css, kind, value]):
+        raise RuntimeError(f"no widget .{css} in the page")
+
+
+def _await_global(page, name):
+    """The value of the promise ``window[name]`` an init script makes, once the page's document has it."""
+    while not page.evaluate("(name) => !!window[name]", name):
+        time.sleep(0.02)
+    return page.evaluate("(name) => window[name]", name)
 
 
 def _ms(value, what):
@@ -231,41 +289,38 @@ def _ms(value, what):
     return value
 
 
-def compare_rows(browser, page, repeats):
+def compare_rows(driver, page, repeats):
     """Pin, a 4 x 6 sweep and a link restoring the pinned designs: (label, ms list) rows."""
-    page.locator(".bk-tab").filter(has_text="Compare designs").first.click()
+    _open_tab(page, "Compare designs")
     pins, pins_measured = [], []
     for i, camera in enumerate(PIN_CAMERAS):
-        page.locator(".w-camera select").first.select_option(camera)
+        _set(page, "w-camera", "select", camera)
         _wait_status(page, "camera", camera)
-        box = page.locator(".w-pin-name input").first
-        box.fill(f"d{i + 1} {camera}")
-        box.press("Enter")
+        _set(page, "w-pin-name", "text", f"d{i + 1} {camera}")
         shown, measured = _ms(page.evaluate(_COMPARE_ACT, ["w-pin", {"pinned": i + 1, "measured": True}]),
                               f"pin {camera}")
         pins.append(shown)
         pins_measured.append(measured)
     sweeps = []
     for values in SWEEP_VALUES[:max(1, min(2, repeats))]:
-        box = page.locator(".w-sweep-values input").first
-        box.fill(values)
-        box.press("Enter")
+        _set(page, "w-sweep-values", "text", values)
         want = {"points": 4 * 6, "values": [float(v) for v in values.split(",")]}
         sweeps.append(_ms(page.evaluate(_COMPARE_ACT, ["w-sweep-run", want]), "sweep"))
-    page.wait_for_function("() => window.location.search.includes('pinned=')", timeout=60000)
+    _wait(page, "return window.location.search.includes('pinned=');", what="the pinned designs in the address")
     # the link as a user shares it after pinning, without the sweep (the row times the designs' restoration)
-    parts = urllib.parse.urlsplit(page.evaluate("window.location.href"))
+    parts = urllib.parse.urlsplit(page.evaluate("() => window.location.href"))
     query = [(k, v) for k, v in urllib.parse.parse_qsl(parts.query) if k != "sweep"]
     link = urllib.parse.urlunsplit(parts._replace(query=urllib.parse.urlencode(query)))
     links = []
     for _ in range(max(1, min(3, repeats))):
-        other = browser.new_page(viewport={"width": 1366, "height": 768})
-        other.set_default_timeout(180000)
+        other = driver.new_page(1366, 768, fresh_context=True)
         try:
             other.add_init_script(_LINK_INIT)
             other.goto(link)
-            other.locator(".bk-tab").filter(has_text="Compare designs").first.click()
-            links.append(_ms(other.evaluate("window.camsimLinked({pinned: %d})" % len(PIN_CAMERAS)), "link"))
+            _await_global(other, "camsimLinked")
+            _open_tab(other, "Compare designs")
+            links.append(_ms(other.evaluate("(want) => window.camsimLinked(want)", {"pinned": len(PIN_CAMERAS)}),
+                             "link"))
         finally:
             other.close()
     return [("pin", pins), ("pin, its quality measures in", pins_measured), ("sweep 4 x 6", sweeps),
@@ -274,24 +329,25 @@ def compare_rows(browser, page, repeats):
 
 def time_action(page, key, css, kind, value):
     """ms from the widget change to the frame showing the result, and the engine ms reported."""
-    el = _element(page, css, kind).element_handle()
-    done = page.evaluate(_ACT, [el, value, key])
+    _wait(page, "return !!camsimWidget(arg[0], arg[1]);", [css, kind], f"the widget .{css}")  # laid out yet
+    done = page.evaluate(_ACT, [css, kind, value, key])
     if "error" in done:
         raise RuntimeError(done["error"])
     return done["ms"], done["engine"]
 
 
-def time_first_render(browser, url):
+def time_first_render(driver, url):
     """ms from navigation start to the first result shown, the engine ms, and how the server made the page's
-    session (its ``Server-Timing`` header: a spare built in advance, or built for this request)."""
-    page = browser.new_page(viewport={"width": 1366, "height": 768})
-    page.set_default_timeout(180000)  # a loaded machine can take long; the table says how long
+    session (its ``Server-Timing`` header, read from the page's navigation entry: a spare built in advance,
+    or built for this request)."""
+    page = driver.new_page(1366, 768, fresh_context=True)  # a browser context of its own: nothing cached
     try:
         page.add_init_script(_FIRST_INIT)
-        response = page.goto(url)
-        done = page.evaluate("window.camsimFirst")
-        timing = (response.headers.get("server-timing", "") if response is not None else "")
-        how = "spare" if 'desc="spare"' in timing else "built"
+        page.goto(url)
+        done = _await_global(page, "camsimFirst")
+        timing = page.evaluate("() => performance.getEntriesByType('navigation')[0].serverTiming"
+                               ".map(t => t.description)")
+        how = "spare" if "spare" in timing else "built"
         # performance.now() counts from navigation start: the page's own clock
         return done["t"], done["engine"], how
     finally:
@@ -304,23 +360,19 @@ def time_first_render(browser, url):
 FIRST_PAUSE_S = 5.0
 
 
-def run(url, repeats):
-    from playwright.sync_api import sync_playwright
-
+def run(url, repeats, driver="cdp"):
     rows = []
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=chromium_path(), args=CHROMIUM_ARGS)
+    with DRIVERS[driver](chromium_path(), CHROMIUM_ARGS) as browser:
         # first render: a fresh page (and browser context, so nothing cached) each time
         firsts = []
         for _ in range(repeats):
             time.sleep(FIRST_PAUSE_S)
             firsts.append(time_first_render(browser, url))
         back_to_back = [time_first_render(browser, url) for _ in range(repeats)]
-        page = browser.new_page(viewport={"width": 1366, "height": 768})
-        page.set_default_timeout(180000)
+        page = browser.new_page(1366, 768)
         page.add_init_script(_FIRST_INIT)
         page.goto(url)
-        page.evaluate("window.camsimFirst")
+        _await_global(page, "camsimFirst")
         for label, key, css, kind, values, *setup in ACTIONS:
             for s_key, s_css, s_kind, s_value in setup:
                 time_action(page, s_key, s_css, s_kind, s_value)
@@ -343,16 +395,17 @@ def run(url, repeats):
         for label, times in compare_rows(browser, page, repeats):
             rows.append((label, times, [0.0]))
         page.close()
-        browser.close()
     for label, runs in (("first render", firsts), ("first, back to back", back_to_back)):
         spares = sum(f[2] == "spare" for f in runs)
         rows.append((label, [f[0] for f in runs], [f[1] or 0.0 for f in runs], f"{spares}/{len(runs)}"))
     return rows
 
 
-def report(rows, repeats):
+def report(rows, repeats, driver="cdp"):
     load = os.getloadavg()
-    print(f"explorer in Chromium at 1366 x 768, default scene; {repeats} repetitions per action; "
+    how = {"cdp": "driven through the DevTools protocol's Runtime alone",
+           "playwright": "driven by Playwright (its Network instrumentation on)"}[driver]
+    print(f"explorer in Chromium at 1366 x 768 ({how}), default scene; {repeats} repetitions per action; "
           f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} cores")
     print(f"{'action':<24} {'median ms':>9} {'max ms':>8} {'engine ms':>9} {'goal ms':>8} {'median/goal':>11} "
           f"{'spare pages':>11}")
@@ -371,13 +424,15 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5, help="repetitions per action (>= 5)")
     ap.add_argument("--url", default=None, help="measure a running explorer instead of starting one")
+    ap.add_argument("--driver", choices=sorted(DRIVERS), default="cdp",
+                    help="cdp: Chromium as a user runs it (default); playwright: with Playwright's instrumentation")
     args = ap.parse_args()
     if args.url:
-        rows = run(args.url, args.repeats)
+        rows = run(args.url, args.repeats, args.driver)
     else:
         with explorer_server() as url:
-            rows = run(url, args.repeats)
-    report(rows, args.repeats)
+            rows = run(url, args.repeats, args.driver)
+    report(rows, args.repeats, args.driver)
     return 0
 
 
