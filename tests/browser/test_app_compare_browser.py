@@ -116,8 +116,12 @@ def test_a_link_reproduces_the_comparison_and_opens_on_it(browser, compared):
     """A link made on the Compare tab opens on it (the tab is in the address): whoever opens a comparison shared
     sees it, without finding the tab; a tab opened later is written into the address in turn."""
     page = compared
-    page.page.wait_for_function("() => window.location.search.includes('pinned=')"
-                                " && window.location.search.includes('tab=compare')", timeout=30000)
+    # the address follows the status in a message of its own: read it once it holds both designs (read once it
+    # held "pinned=", it could still name the first alone, and the link then restored one design)
+    page.page.wait_for_function("() => { const q = new URLSearchParams(window.location.search);"
+                                " const p = q.get('pinned') || '';"
+                                " return q.get('tab') === 'compare' && p.includes('DCS-200') && p.includes('human cones'); }",
+                                timeout=30000)
     url = page.page.url
     first = compare_status(page)
     second = Page(browser, url)
