@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 PORT   ?= 5006
 
-.PHONY: install chromium serve test test-fast bench clean
+.PHONY: install chromium bytecode serve test test-fast bench clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -24,18 +24,25 @@ chromium:
 	  echo "installing Debian's exiftool for the DNG tests"; \
 	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libimage-exiftool-perl >/dev/null; }
 
+# Python's compiled bytecode of camsim's own modules, written once here: where PYTHONDONTWRITEBYTECODE is set (as
+# on CI machines) nothing else writes it, and every process (each server, test worker, upload reader, command)
+# compiled camsim from source as it imported it, 2.5 s of CPU for the explorer (4.7 s -> 2.1 s to import it).
+# Up-to-date files are skipped.
+bytecode: install
+	$(PY) -m compileall -q -j 0 camsim_core app tests benchmarks >/dev/null
+
 # One BLAS thread per process: the explorer's matrices are small, and threads only contend.
-serve: install
+serve: install bytecode
 	OPENBLAS_NUM_THREADS=1 $(VENV)/bin/camsim serve --port $(PORT)
 
 # Three workers (pytest-xdist) on two cores, each test file on one of them, the longest files first
 # (tests/conftest.py): a browser test's worker waits on its server and its browser much of the time, which a third
 # worker fills. A worker starts one server, a file one browser.
-test: install chromium
+test: install chromium bytecode
 	$(PY) -m pytest -q -rfEs -n 3 --dist loadfile --no-loadscope-reorder
 
 # The development loop: the engine and the explorer's state and server, no browser (about a minute).
-test-fast: install
+test-fast: install bytecode
 	$(PY) -m pytest -q -rs -n 2 --dist loadfile tests/engine tests/app
 
 bench: install

@@ -125,3 +125,15 @@ def test_github_anchor_follows_githubs_rule():
     assert github_anchor("Pages built off the event loop (`app/_build_off_loop.py`)") == \
         "pages-built-off-the-event-loop-app_build_off_looppy"
     assert github_anchor("The ideal image (section 4.3)") == "the-ideal-image-section-43"
+
+
+def test_make_test_and_serve_write_camsims_bytecode_first():
+    """Where PYTHONDONTWRITEBYTECODE is set (CI machines), nothing but ``make``'s ``bytecode`` step writes the
+    compiled modules of camsim, and every process of the suite compiled the explorer from source as it
+    imported it (4.7 s to import it instead of 2.1 s)."""
+    makefile = (ROOT / "Makefile").read_text(encoding="utf-8")
+    for target in ("test", "test-fast", "serve"):
+        deps = re.search(rf"^{re.escape(target)}:(.*)$", makefile, re.M).group(1).split()
+        assert "bytecode" in deps, (target, deps)
+    recipe = re.search(r"^bytecode:.*\n((?:\t.*\n)+)", makefile, re.M).group(1)
+    assert "compileall" in recipe and all(folder in recipe for folder in ("camsim_core", "app")), recipe
