@@ -277,7 +277,10 @@ def _set(page, css, kind, value):
 
 def _await_global(page, name):
     """The value of the promise ``window[name]`` an init script makes, once the page's document has it."""
+    deadline = time.monotonic() + 180
     while not page.evaluate("(name) => !!window[name]", name):
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"the page never ran its init script ({name}): not loaded within 180 s")
         time.sleep(0.02)
     return page.evaluate("(name) => window[name]", name)
 
