@@ -91,7 +91,7 @@ function camsimStatus() {
 }
 function camsimWidget(css, kind) {  // the input or select of the widget with CSS class css
   const host = deep('.' + css);
-  return host && deep(kind === 'number' ? 'input' : (kind === 'text' ? 'input' : 'select'), host.shadowRoot || host);
+  return host && deep(kind === 'select' ? 'select' : 'input', host.shadowRoot || host);
 }
 function camsimSet(el, value) {  // as a user's choice or Enter does it: the value, then its change event
   el.value = String(value);
@@ -267,12 +267,9 @@ def _open_tab(page, title):
 
 
 def _set(page, css, kind, value):
-    """Set a widget's value as a user does (choice, or text and Enter), untimed."""
-    _wait(page, "return !!camsimWidget(arg[0], arg[1]);", [css, kind], f"the widget .{css}")
-    if not page.evaluate("([css, kind, value]) => {" + _DEEP + """
-      const el = camsimWidget(css, kind); if (!el) return false; camsimSet(el, value); return true; }""",
-                         [css, kind, value]):
-        raise RuntimeError(f"no widget .{css} in the page")
+    """Set a widget's value as a user does (choice, or text and Enter), untimed, once the page has it."""
+    _wait(page, "const el = camsimWidget(arg[0], arg[1]); if (el) camsimSet(el, arg[2]); return !!el;",
+          [css, kind, value], f"the widget .{css}")
 
 
 def _await_global(page, name):
