@@ -3,8 +3,8 @@ sweep noise sigma. Numbers are checked against the engine's results for each con
 
 import pytest
 
-from app_helpers import (ARTIFACTS, Page, active_tab, compare_status, eventually, next_frames, wait_compare,
-                         wait_until)
+from app_helpers import (ARTIFACTS, Page, active_tab, background_share, compare_status, eventually, next_frames,
+                         shot_until, wait_compare, wait_until)
 from camsim_core.review import evaluate_design
 
 pytestmark = pytest.mark.browser
@@ -129,6 +129,8 @@ def test_a_link_reproduces_the_comparison_and_opens_on_it(browser, compared):
         assert active_tab(second) == "Compare designs"  # no click: the link's tab
         s = wait_compare(second, lambda s: [d["name"] for d in s["designs"]] == ["DCS-200", "human cones"]
                          and not s["busy"])
+        for css in (".camsim-compare-rendered", ".camsim-compare-de"):  # the designs drawn, not only counted
+            shot_until(second, css, lambda png: background_share(png) < 0.5, f"the link's first design in {css} is drawn")
         second.shot("compare-shared-link")
         assert s["designs"] == first["designs"] and s["differ"] == ["camera"]
         second.page.locator(".bk-tab").filter(has_text="Scene").first.click()
