@@ -476,12 +476,12 @@ def _shipped(name):
     if name == "simtoolbox-test":
         m = read_smon(SIMTOOLBOX / "monitors" / "SimToolboxTest.Smon")
         return Monitor(m.wavelengths, m.primaries, m.gamma_input, m.gamma_table, m.ambient, m.background, 8, name)
-    import colour
+    from .datasets.colour_science import table
 
-    p = colour.MSDS_DISPLAY_PRIMARIES["Typical CRT Brainard 1997"]
+    w, primaries = table("crt-brainard-1997")  # colour-science's, shipped
     gi = np.linspace(0, 1, 1024)
     gt = np.repeat((gi ** 2.2)[:, None], 3, axis=1)
-    return Monitor(p.wavelengths, p.values, gi, gt, None, (0.5, 0.5, 0.5), 8, name)
+    return Monitor(w, primaries, gi, gt, None, (0.5, 0.5, 0.5), 8, name)
 
 
 def load_monitor(name_or_path):

@@ -81,8 +81,7 @@ def sensor_colors(sensitivities, wavelengths, names=None):
     >>> sensor_colors(np.ones((3, w.size)), w, ("R", "G", "B"))[2].tolist()
     [0.0, 0.0, 1.0]
     """
-    import colour
-
+    from .datasets.colour_science import xyz_to_srgb
     from .datasets.sensors import cie1931_xyz
 
     sens = np.atleast_2d(np.asarray(sensitivities, float))
@@ -92,7 +91,7 @@ def sensor_colors(sensitivities, wavelengths, names=None):
     out = []
     for row in sens:
         xyz = row @ bar
-        rgb = np.clip(colour.XYZ_to_sRGB(xyz / max(xyz[1], 1e-12) * 0.5, apply_cctf_encoding=False), 0, None)
+        rgb = np.clip(xyz_to_srgb(xyz / max(xyz[1], 1e-12) * 0.5, encode=False), 0, None)
         out.append(rgb / rgb.max() if np.isfinite(rgb).all() and rgb.max() > 0 else np.full(3, 0.6))
     return np.array(out)
 

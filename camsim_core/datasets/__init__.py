@@ -1,7 +1,8 @@
 """Spectral datasets shipped with camsim, as plain module-level accessors with references.
 
 Files come from ``assets/simtoolbox`` (BrainardLab/SimToolbox, MIT licence,
-see ``assets/simtoolbox/LICENSE``) or from colour-science's own datasets.
+see ``assets/simtoolbox/LICENSE``) or from colour-science's own datasets (their
+tables shipped in ``assets/colour-science``: :mod:`camsim_core.datasets.colour_science`).
 Every path to a shipped file is made by :func:`asset_path`: the folder
 ``assets/`` of the repository is installed as the package
 ``camsim_core.assets`` and found with :mod:`importlib.resources`, so an

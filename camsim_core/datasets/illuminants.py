@@ -34,10 +34,10 @@ ILLUMINANT_NAMES = tuple(_MAT) + ("D65", "A")
 def illuminant(name):
     """An illuminant :class:`~camsim_core.spectra.Spectrum` by name (see ``ILLUMINANT_NAMES``)."""
     if name in ("D65", "A"):
-        import colour
+        from .colour_science import table
 
-        sd = colour.SDS_ILLUMINANTS[name]
-        return Spectrum(sd.wavelengths, sd.values, f"CIE {name}")
+        w, spd = table(name)  # colour-science's, shipped
+        return Spectrum(w, spd, f"CIE {name}")
     if name not in _MAT:
         raise ParameterError("illuminant", f"unknown name {name!r}; known: {', '.join(ILLUMINANT_NAMES)}")
     from scipy.io import loadmat

@@ -156,20 +156,20 @@ def smith_pokorny_cones():
 
 @lru_cache(maxsize=None)
 def stockman_sharpe_cones():
-    """Stockman-Sharpe 2-degree L, M, S cone fundamentals from colour-science."""
-    import colour
+    """Stockman-Sharpe 2-degree L, M, S cone fundamentals from colour-science (its table, shipped)."""
+    from .colour_science import table
 
-    cmfs = colour.MSDS_CMFS["Stockman & Sharpe 2 Degree Cone Fundamentals"]
-    return Sensors(cmfs.wavelengths, cmfs.values.T, ("L", "M", "S"), "Watts", "Stockman-Sharpe cones")
+    w, v = table("stockman-sharpe")
+    return Sensors(w, v.T, ("L", "M", "S"), "Watts", "Stockman-Sharpe cones")
 
 
 @lru_cache(maxsize=None)
 def cie1931_xyz():
-    """CIE 1931 2-degree colour matching functions x-bar, y-bar, z-bar from colour-science."""
-    import colour
+    """CIE 1931 2-degree colour matching functions x-bar, y-bar, z-bar from colour-science (its table, shipped)."""
+    from .colour_science import table
 
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    return Sensors(cmfs.wavelengths, cmfs.values.T, ("X", "Y", "Z"), "Watts", "CIE 1931 XYZ")
+    w, v = table("cie1931")
+    return Sensors(w, v.T, ("X", "Y", "Z"), "Watts", "CIE 1931 XYZ")
 
 
 @lru_cache(maxsize=None)

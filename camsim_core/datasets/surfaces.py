@@ -33,11 +33,7 @@ def munsell():
 @lru_cache(maxsize=None)
 def macbeth():
     """(wavelengths, reflectances (24, N), names) of the Macbeth ColorChecker, row by row."""
-    import colour
+    from .colour_science import colourchecker_names, table
 
-    sds = colour.SDS_COLOURCHECKERS["BabelColor Average"]
-    names = tuple(sds)
-    w = sds[names[0]].wavelengths
-    r = np.stack([sds[n].values for n in names])
-    r.flags.writeable = False
-    return np.asarray(w, float), r, names
+    w, r = table("babelcolor")  # colour-science's BabelColor average, shipped: one column a patch
+    return w, r.T, colourchecker_names()

@@ -72,11 +72,11 @@ def balance_matrix(t_c, t_h, e, b_s, e_render=None):
 
 
 def daylight_basis(wavelengths):
-    """B_e (N, 3): the CIE daylight basis S0, S1, S2 (colour-science) on ``wavelengths``."""
-    from colour.colorimetry.datasets.illuminants import SDS_BASIS_FUNCTIONS_CIE_ILLUMINANT_D_SERIES as sds
+    """B_e (N, 3): the CIE daylight basis S0, S1, S2 (colour-science's, shipped) on ``wavelengths``."""
+    from ..datasets.colour_science import table
 
-    cols = [resample(sd.wavelengths, sd.values, wavelengths) for sd in (sds["S0"], sds["S1"], sds["S2"])]
-    return np.stack(cols, axis=1)
+    w, s = table("daylight-basis")
+    return np.stack([resample(w, s[:, k], wavelengths) for k in range(3)], axis=1)
 
 
 def estimate_illuminant(responses, sensitivities, wavelengths, method):

@@ -41,10 +41,10 @@ _NOTICE = "spectra from an sRGB photo by Mallett & Yuksel 2019 upsampling: plaus
 
 def mallett_basis(wavelengths):
     """(3, N) Mallett 2019 basis reflectances (r, g, b) on ``wavelengths`` (nm), from colour-science."""
-    import colour
+    from ..datasets.colour_science import table
 
-    b = colour.recovery.MSDS_BASIS_FUNCTIONS_sRGB_MALLETT2019
-    return resample(b.wavelengths, b.values.T, wavelengths)
+    w, b = table("mallett2019")  # colour-science's, shipped
+    return resample(w, b.T, wavelengths)
 
 
 def scene_from_rgb(rgb, *, illuminant="D65", luminance=100.0, distance=1.0, angular_resolution=(57.3, 57.3),
@@ -70,7 +70,7 @@ def scene_from_rgb(rgb, *, illuminant="D65", luminance=100.0, distance=1.0, angu
     wavelengths : array_like
         nm, default 400:10:700.
     """
-    import colour
+    from ..datasets.colour_science import srgb_to_linear
 
     a = np.asarray(rgb)
     if a.ndim != 3 or a.shape[2] != 3 or a.size == 0:
@@ -85,7 +85,7 @@ def scene_from_rgb(rgb, *, illuminant="D65", luminance=100.0, distance=1.0, angu
     w = np.asarray(wavelengths, float)
     if a.shape[0] * a.shape[1] * w.size > MAX_SCENE_VALUES:
         raise ParameterError("rgb", f"{a.shape[0]} x {a.shape[1]} pixels x {w.size} bands is more than {MAX_SCENE_VALUES} values")
-    linear = colour.cctf_decoding(a, function="sRGB")
+    linear = srgb_to_linear(a)
     spd, e = _illuminant(illuminant, w)
     e = e * scale_to_luminance(w, e, luminance)
     weights = mallett_basis(w) * e[None, :]  # (3, N): radiance of each primary reflectance

@@ -3,8 +3,10 @@
 The radiance of each pixel becomes CIE 1931 XYZ (the sum over bands of the
 colour-matching functions times the radiance per band), is scaled so that
 the 99th percentile of its luminance Y is 1 (the brightest 1 % clip), and
-goes to sRGB with the sRGB transfer function (colour-science's
-``XYZ_to_sRGB``; sRGB's white is D65, so no chromatic adaptation).
+goes to sRGB with the sRGB transfer function
+(:func:`camsim_core.datasets.colour_science.xyz_to_srgb`, the numbers of
+colour-science's ``XYZ_to_sRGB``; sRGB's white is D65, so no chromatic
+adaptation).
 
 A preview, not a rendering of the chapter's pipeline: the scene as a human
 observer would roughly see it, for notebooks (``Scene._repr_html_``) and
@@ -58,9 +60,8 @@ def spectral_srgb(data, wavelengths, *, percentile=PREVIEW_PERCENTILE):
     >>> np.round(spectral_srgb(cube, w)[0, 0], 2).tolist()
     [1.0, 1.0, 1.0]
     """
+    from ..datasets.colour_science import xyz_to_srgb
     from ..datasets.sensors import cie1931_xyz
-
-    import colour
 
     a = np.asarray(data)
     w = np.asarray(wavelengths, float).ravel()
@@ -77,7 +78,7 @@ def spectral_srgb(data, wavelengths, *, percentile=PREVIEW_PERCENTILE):
         scale = float(np.max(xyz[..., 1])) if xyz.size else 0.0
     if not np.isfinite(scale) or scale <= 0:
         return np.zeros((h, width, 3))
-    rgb = colour.XYZ_to_sRGB(xyz / scale, apply_cctf_encoding=True)
+    rgb = xyz_to_srgb(xyz / scale)
     return np.clip(np.nan_to_num(rgb), 0.0, 1.0)
 
 
