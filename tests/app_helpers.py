@@ -150,15 +150,28 @@ class Page:
             return {}
 
     def wait_for(self, predicate, timeout=TIMEOUT):
-        """Poll the status pane until ``predicate(status)`` holds; return the status."""
+        """Wait until ``predicate(status)`` holds; return the status. The page watches its status pane and
+        answers when it changes (or after :data:`CHANGE_WAIT_MS`), so the predicate is evaluated for each new
+        status and a few times a second meanwhile."""
+        from playwright.sync_api import Error as PlaywrightError
+
         deadline = time.monotonic() + timeout
+        text = self.page.evaluate(STATUS_JS)
         while True:
-            s = self.status()
+            try:
+                s = json.loads(text)
+            except (TypeError, ValueError):
+                s = {}
             if s and predicate(s):
                 return s
             if time.monotonic() > deadline:
                 raise AssertionError(f"status never satisfied the condition; last: {s}")
-            time.sleep(POLL)
+            try:
+                text = self.page.evaluate(STATUS_CHANGE_JS, [text, CHANGE_WAIT_MS])
+            except PlaywrightError as exc:  # the page navigated while it watched (a link, a reload): watch anew
+                if "context was destroyed" not in str(exc) and "navigat" not in str(exc):
+                    raise
+                text = None
 
     def params(self):
         return self.status()["params"]
@@ -223,8 +236,24 @@ const select = css => css.split(',').flatMap(part => {
 });
 const shown = el => el.getClientRects().length > 0 && getComputedStyle(el).visibility !== 'hidden';
 """
+#: JS: the status pane's text element, found once and kept while it is in the page (a wait reads it 20 times a
+#: second: finding it walks the page's ~3,000 elements and their shadow roots, 2.5 ms of the renderer's CPU a look).
+_STATUS_PRE_JS = ("const statusPre = () => { let pre = window.__camsimStatusPre;"
+                  " if (!pre || !pre.isConnected) { pre = select('.camsim-status pre')[0] || null;"
+                  " window.__camsimStatusPre = pre; } return pre; };")
 #: JS: the text of the status pane (what a test reads of the result shown), or null before it exists.
-STATUS_JS = "() => {" + _DEEP_JS + "const pre = select('.camsim-status pre')[0]; return pre ? pre.textContent : null; }"
+STATUS_JS = "() => {" + _DEEP_JS + _STATUS_PRE_JS + "const pre = statusPre(); return pre ? pre.textContent : null; }"
+#: JS ``([last, ms])``: the status pane's text once it differs from ``last``, or after ``ms`` milliseconds
+#: (looked at every 20 ms in the page: a wait makes a round trip to the page when the status changes, not 20 times
+#: a second).
+STATUS_CHANGE_JS = ("async ([last, ms]) => {" + _DEEP_JS + _STATUS_PRE_JS +
+                    " const t0 = performance.now(); for (;;) { const pre = statusPre();"
+                    " const text = pre ? pre.textContent : null;"
+                    " if (text !== last || performance.now() - t0 > ms) return text;"
+                    " await new Promise(r => setTimeout(r, 20)); } }")
+#: Longest a wait leaves the status pane unread in the page before its condition is evaluated again (ms): a
+#: condition may read more than the status (an alert, a pane).
+CHANGE_WAIT_MS = 250
 _TEXTS_JS = "css => {" + _DEEP_JS + "return select(css).map(el => el.innerText); }"
 _ALERT_JS = ("() => {" + _DEEP_JS + "const box = select('.camsim-alert')[0]; if (!box || !shown(box)) return '';"
              " return select('.camsim-alert p').map(el => el.innerText).join(' '); }")
