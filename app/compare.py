@@ -57,7 +57,7 @@ from .safe_text import PlainText, html_text, md_text
 from .shown import now, off_the_loop
 from . import state as state_module
 from .state import short_repr
-from .views import ASPECT_TOLERANCE, _rgb_hover, fit_ranges, monitor_rgba, once, rgba32, screen_part, when_page_ready
+from .views import ASPECT_TOLERANCE, _rgb_hover, fit_ranges, monitor_rgba, once, rgba32, screen_part
 
 __all__ = ["CompareView", "DesignStore", "compare_tab"]
 
@@ -414,11 +414,6 @@ class CompareView:
         self._doc = pn.state.curdoc
         self._built = False  # the plots are made when there is something to compare (a light page until then)
         self._prebuilt = None  # the plots made ahead by a worker thread (a dict for _ensure_plots)
-        # while a worker makes them (``_prebuilding``), an update on the event loop shows the table and waits for
-        # them (``_update_after_prebuild``) instead of making a second set there; one lock for the three
-        self._plots_lock = threading.Lock()
-        self._prebuilding = self._update_after_prebuild = False
-        self._update_waits = False  # an update waits for the page to report it is drawn (:meth:`update`)
         self._started = self._updated = 0.0  # when the designs computing began, when the tab was last updated
         self._computing_text = None  # the message saying designs are computing (replaced when they are done)
         # what the views show of each design's arrays, made ahead in the thread that computed them (the event loop
@@ -490,8 +485,7 @@ class CompareView:
         if self._built:
             return
         self._built = True
-        with self._plots_lock:
-            plots, self._prebuilt = self._prebuilt, None
+        plots, self._prebuilt = self._prebuilt, None
         self.__dict__.update(plots or self._make_plots(1.0 if aspect is None else aspect))
         # rows that wrap: five designs, or a histogram beside a wide table, do not fit a 1366 px window's width
         self.views[:] = [pn.Row(*self.slots, styles=_WRAP), pn.Row(self.hist_pane, self.table, styles=_WRAP),
@@ -501,32 +495,9 @@ class CompareView:
 
     def _prebuild(self, aspect):
         """Make the plots ahead, in a worker thread, for :meth:`_ensure_plots` to show: the Bokeh models of a
-        dozen figures take ~0.4-0.8 s to make, which on the event loop held every session's page as long.
-
-        An update that came meanwhile (a link's page opening on the Compare tab while its designs' worker made
-        the plots: the loop made a second set, 0.66-0.7 s) waited for them: it runs again once they are made."""
-        with self._plots_lock:
-            if self._built or self._prebuilt is not None or self._prebuilding:
-                return
-            self._prebuilding = True
-        plots = None
-        try:
-            plots = self._make_plots(aspect)
-        finally:
-            with self._plots_lock:
-                self._prebuilt = None if self._built else plots
-                self._prebuilding = False
-                wanted, self._update_after_prebuild = self._update_after_prebuild, False
-            if wanted:
-                self._schedule(self._update_shown)
-
-    def _plots_coming(self):
-        """True (and the update asked for once they come) while a worker makes the plots (:meth:`_prebuild`)."""
-        with self._plots_lock:
-            if self._prebuilding and not self._built:
-                self._update_after_prebuild = True
-                return True
-        return False
+        dozen figures take ~0.4 s to make, which on the event loop held every session's page as long."""
+        if not self._built and self._prebuilt is None:
+            self._prebuilt = self._make_plots(aspect)
 
     def _make_plots(self, aspect=1.0):
         """The tab's plots, as attributes of the view (a dict); touches nothing shown (any thread)."""
@@ -864,32 +835,7 @@ class CompareView:
         return out + pinned
 
     def update(self):
-        """Show the current designs: images, histograms, table, A/B choices, status.
-
-        On a served page, once the page has reported that it is drawn (``views.when_page_ready``): Panel drops
-        the changes made inside ``pn.io.hold`` between the browser's first pull and that report, and a link
-        opening on this tab showed its designs' slots hidden and its A/B maps blank when its designs came in
-        that window (the slots' ``visible`` never reached the browser). Updates asked for meanwhile are one
-        update then, of the newest designs."""
-        if self._update_waits:
-            return
-        self._update_waits = True
-        deferred = []
-
-        def run():
-            self._update_waits = False
-            if deferred:  # from the page's ready report: a failure is a message, never a dead tab
-                self._safely(self._update)
-            else:
-                self._update()
-
-        try:
-            when_page_ready(run)
-        finally:
-            if self._update_waits:  # not run yet: it runs from the page's ready report
-                deferred.append(True)
-
-    def _update(self):
+        """Show the current designs: images, histograms, table, A/B choices, status."""
         self._updated = time.monotonic()
         results = self.designs()
         metric = self.state.metric
@@ -899,11 +845,6 @@ class CompareView:
         if not (self._built or self.state.pinned):  # only the live design: its table, no plots yet
             self.views[:] = [self.table]
             self._status(results, top)
-            return
-        if not self._built and self._plots_coming():  # the table now, the designs once their plots are made
-            if not (len(self.views) == 1 and self.views[0] is self.table):
-                self.views[:] = [self.table]
-            self._status(results, top, busy=True)
             return
         doc = self._server_doc()
         # held: the new plots first, then their data, in order (see ``views.held``); frozen while the plots are put
@@ -1162,8 +1103,7 @@ class CompareView:
                                      f"{point.value:g} into the live design.")
 
     # -- status and report -------------------------------------------------------
-    def _status(self, results=None, top=None, busy=None):
-        """The comparison's status (JSON); ``busy`` when its designs are not all shown yet (default: computing)."""
+    def _status(self, results=None, top=None):
         results = results if results is not None else self.designs()
         sweep = self.state.sweep
         self.status.object = json.dumps({
@@ -1171,7 +1111,7 @@ class CompareView:
                          "shape": list(r.shape)} for r in results],
             "pinned": [p["name"] for p in self.state.pinned],
             "differ": differing_parameters([r.params for r in results], skip=_SHARED) if results else [],
-            "busy": self._computing if busy is None else busy,
+            "busy": self._computing,
             "measuring": [r.name for r in results if r.quality_pending],
             "errors": self.errors,
             "scale_top": top,
