@@ -41,7 +41,7 @@ serve: install bytecode
 test: install chromium bytecode
 	$(PY) -m pytest -q -rfEs -n 3 --dist loadfile --no-loadscope-reorder
 
-# The development loop: the engine and the explorer's state and server, no browser (about a minute).
+# The development loop: the engine and the explorer's state and server, no browser (about three minutes on two cores).
 test-fast: install bytecode
 	$(PY) -m pytest -q -rs -n 2 --dist loadfile tests/engine tests/app
 

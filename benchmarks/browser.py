@@ -201,7 +201,18 @@ function compareHas(s, want) {
   if (want.points !== undefined && !(s.sweep && s.sweep.points.length === want.points)) return false;
   // this sweep's values, not the last sweep's points still shown when the button was clicked
   if (want.values !== undefined && !(s.sweep && JSON.stringify(s.sweep.values) === JSON.stringify(want.values))) return false;
+  // the designs drawn, not only listed: a slot of the page per design, shown (a link once listed its designs
+  // while their slots stayed hidden); looked for once the status says so
+  if (want.pinned !== undefined && shownSlots() < s.designs.length) return false;
   return true;
+}
+function shownSlots(root = document) {
+  let n = 0;
+  for (const el of root.querySelectorAll('*')) {
+    if (el.classList.contains('camsim-compare-slot') && el.getClientRects().length > 0) n++;
+    if (el.shadowRoot) n += shownSlots(el.shadowRoot);
+  }
+  return n;
 }
 """
 _COMPARE_ACT = "([button, want]) => {" + _DEEP + _COMPARE_STATUS + """
