@@ -29,6 +29,7 @@ import logging
 import math
 import os
 import threading
+import weakref
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -78,6 +79,37 @@ from camsim_core.scene.charts import CHART_NAMES as _CHART_NAMES  # noqa: E402
 
 #: Fraction of full scale at which a chart picked in the explorer puts its brightest 0.5 % (asked: 50-90 %).
 CHART_EXPOSURE = 0.8
+
+#: The charts the server's sessions hold, by name (``shared_chart``): held weakly, kept while a session holds one.
+_SHARED_CHARTS = weakref.WeakValueDictionary()
+_SHARED_CHARTS_LOCK = threading.Lock()
+
+
+def shared_chart(name, max_values):
+    """The test chart ``name`` (options and all, as :func:`camsim_core.scene.charts.chart_name` writes it): the one
+    another session of this server holds, else made now (and offered to the others).
+
+    A chart's name says everything it is made from, and scenes are read-only, so sessions showing the same chart
+    share one: a class opening its teacher's link to a chart fitted to a camera made it once per page (1.3 s of
+    each page's build and 138 MB for the default camera's frame). A chart held under other limits is checked
+    against ``max_values`` (pixels x wavelengths) again.
+
+    Examples
+    --------
+    >>> a = shared_chart("macbeth:patch_size=10", 10**7)
+    >>> a is shared_chart("macbeth:patch_size=10", 10**7)
+    True
+    """
+    from camsim_core.scene.charts import chart
+
+    with _SHARED_CHARTS_LOCK:
+        scene = _SHARED_CHARTS.get(name)
+    if scene is not None and scene.data.size <= max_values:
+        return scene
+    scene = chart(name, max_values=max_values)
+    with _SHARED_CHARTS_LOCK:
+        _SHARED_CHARTS[name] = scene
+    return scene
 
 
 def demosaic_methods():
@@ -677,7 +709,7 @@ class ExplorerState(param.Parameterized):
         than ``LIMITS.max_chart_values`` are refused with a message, before
         anything is made. Returns whether the chart is offered.
         """
-        from camsim_core.scene.charts import CHART_NAMES, chart, chart_name, parse_chart
+        from camsim_core.scene.charts import CHART_NAMES, chart_name, parse_chart
 
         text = str(name)
         if text.partition(":")[0].strip().lower() not in CHART_NAMES:
@@ -701,7 +733,7 @@ class ExplorerState(param.Parameterized):
             key = chart_name(base, opts)
             scene = None
             if opts and key not in self._uploads:
-                scene = chart(key, max_values=LIMITS.max_chart_values)
+                scene = shared_chart(key, LIMITS.max_chart_values)
         except CamsimError as exc:
             self.message = f"Chart options refused: {exc}"
             return False
@@ -784,10 +816,8 @@ class ExplorerState(param.Parameterized):
     def _make_fitted(self, spec, camera, scene=None):
         """``(chart, chart under the light, exposure or None)`` of a :meth:`_fit_spec`: the slow part (the
         chart is made unless this session holds it, or it is given), safe in the computing thread."""
-        from camsim_core.scene.charts import chart
-
         if scene is None:
-            scene = self._uploads.get(spec["key"]) or chart(spec["key"], max_values=LIMITS.max_chart_values)
+            scene = self._uploads.get(spec["key"]) or shared_chart(spec["key"], LIMITS.max_chart_values)
         lit = scale_light(scene, spec["light"])
         value = float(cc.auto_exposure(lit, camera, target=CHART_EXPOSURE)) if spec["expose"] else None
         return scene, lit, value

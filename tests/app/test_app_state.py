@@ -692,3 +692,27 @@ def test_diagnostics_show_only_while_their_box_is_ticked():
         assert shown.visible is False
     finally:
         _release(template.state, template.body, template)
+
+
+def test_sessions_share_a_chart_by_name_and_each_checks_it_against_the_limit():
+    """A chart's name says everything it is made from: two sessions offering it hold one scene (a class opening
+    a link to a fitted chart made it once per page), released once none holds it; a chart held under a looser
+    limit is still refused under a stricter one."""
+    import gc
+
+    import pytest
+
+    from camsim_core.errors import CamsimError
+    from camsim_explorer import state as state_module
+
+    name = "macbeth:patch_size=9"
+    a, b = ExplorerState(start=False), ExplorerState(start=False)
+    assert a.offer_chart(name) and b.offer_chart(name)
+    assert a._uploads[name] is b._uploads[name]
+    shared = state_module._SHARED_CHARTS.get(name)
+    assert shared is not None and shared is state_module.shared_chart(name, shared.data.size)
+    with pytest.raises(CamsimError):
+        state_module.shared_chart(name, shared.data.size - 1)
+    del a, b, shared
+    gc.collect()
+    assert state_module._SHARED_CHARTS.get(name) is None
