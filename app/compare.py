@@ -54,10 +54,11 @@ from camsim_core.review.sweep import SWEEP_PARAMETERS, check_sweep, iter_sweep
 
 from .curves import CurvesPlot
 from .safe_text import PlainText, html_text, md_text
-from .shown import now, off_the_loop
+from .shown import next_tick, now, off_the_loop, page_being_built
 from . import state as state_module
 from .state import short_repr
-from .views import ASPECT_TOLERANCE, _rgb_hover, fit_ranges, monitor_rgba, once, rgba32, screen_part
+from .views import (ASPECT_TOLERANCE, _rgb_hover, fit_ranges, monitor_rgba, once, rgba32, screen_part,
+                    when_page_ready)
 
 __all__ = ["CompareView", "DesignStore", "compare_tab"]
 
@@ -168,6 +169,51 @@ class SharedDesigns:
     def __len__(self):
         return len(self._items)
 
+
+class SharedViews:
+    """What the tab shows of arrays several sessions share (shared designs' images and dE maps, an A/B pair of
+    them), for every session of the server: ``(kind, arrays) -> value``, kept while the arrays live.
+
+    Designs taken from :data:`SHARED_DESIGNS` are the same arrays in every page that shows them; their image
+    views' data, histograms and A/B difference were made again by each page (0.7-1 s of a link's build with
+    four designs of a frame-sized chart). Keyed by the arrays' identity, held through weak references: a value
+    is found only while all of its arrays are alive and the same objects.
+
+    Examples
+    --------
+    >>> views, a = SharedViews(), np.zeros(3)
+    >>> views.get("sum", (a,)) is None
+    True
+    >>> views.put("sum", (a,), 0.0); views.get("sum", (a,))
+    0.0
+    >>> views.get("sum", (np.zeros(3),)) is None  # equal values, another array
+    True
+    """
+
+    def __init__(self):
+        self._items = {}  # (kind, ids) -> (weak references to the arrays, value)
+        self._lock = threading.Lock()
+
+    def get(self, kind, arrays):
+        with self._lock:
+            held = self._items.get((kind, tuple(map(id, arrays))))
+        if held is not None and all(ref() is a for ref, a in zip(held[0], arrays)):
+            return held[1]
+        return None
+
+    def put(self, kind, arrays, value):
+        refs = tuple(weakref.ref(a) for a in arrays)
+        with self._lock:
+            for key in [k for k, (rs, _) in self._items.items() if any(r() is None for r in rs)]:
+                del self._items[key]  # arrays gone: their ids may be reused
+            self._items[(kind, tuple(map(id, arrays)))] = (refs, value)
+
+    def __len__(self):
+        return len(self._items)
+
+
+#: What the Compare tabs show of shared designs (:class:`SharedViews`).
+SHARED_VIEWS = SharedViews()
 
 #: The designs held by the sessions of this server (:class:`SharedDesigns`).
 SHARED_DESIGNS = SharedDesigns()
@@ -286,6 +332,20 @@ def _ab_shown(a, b, metric):
     idx = np.where(tie, 2, np.where(ab["a_wins"], 0, 1))
     return (ab, de_view(ab["delta_e"]), screen_view(rgba32(_WIN_COLOURS[idx])), shared_scale([ab["delta_e"]]),
             _aspect(ab["delta_e"]))
+
+
+def _ab_shared(a, b, metric):
+    """:func:`_ab_shown`, made once per pair of designs' arrays for the whole server (:data:`SHARED_VIEWS`): a
+    class opening one link shows the same pair."""
+    arrays = (a.xyz, b.xyz, a.error_map(metric), b.error_map(metric))
+    if not all(isinstance(x, np.ndarray) for x in arrays):
+        return _ab_shown(a, b, metric)
+    outcome = SHARED_VIEWS.get(("ab", metric), arrays)
+    if outcome is None:
+        outcome = _ab_shown(a, b, metric)
+        if not isinstance(outcome, str):
+            SHARED_VIEWS.put(("ab", metric), arrays, outcome)
+    return outcome
 
 
 def de_view(de):
@@ -604,7 +664,14 @@ class CompareView:
         self._generation += 1
         generation = self._generation
         key = self._scene_key()
+        building = page_being_built(self._server_doc())
+        if building:
+            self._take_shared(key)
         missing = [p for p in self.state.pinned if self.store.get(key, p["params"]) is None]
+        if building and missing:
+            # a link's designs to compute: the plots go with the page's first document, made in the builder thread
+            # (made later on the event loop, they and their addition to the page held every page 1-2 s)
+            self._ensure_plots()
         if not missing:
             self._computing = False
             self.progress.value = 0
@@ -628,6 +695,19 @@ class CompareView:
             self._compute(missing, scene, key, generation, live)
         else:
             self._start_worker(self._compute, (missing, scene, key, generation, live), "camsim-compare")
+
+    def _take_shared(self, key):
+        """The pinned designs another session holds (:data:`SHARED_DESIGNS`), into this page's store now: a page
+        built for a link (in the builder thread) then has them in its first document, plots and all, and its
+        browser gets them with the page (made after the page was sent, they held the event loop 1.5-2.5 s a link
+        and came 2-3 s after the page)."""
+        metric = self.state.metric
+        for p in self.state.pinned:
+            if self.store.get(key, p["params"]) is None:
+                result = SHARED_DESIGNS.get(key, {**p["params"], **self._shared()})
+                if result is not None:
+                    self._prepare_design(result, metric)
+                    self.store.put(key, p["params"], result)
 
     def _compute(self, missing, scene, key, generation, live=None):
         """Compute the designs ``missing`` (shown as each is done), then their image-quality measures.
@@ -690,7 +770,7 @@ class CompareView:
         """
         start = threading.Thread(target=target, args=args, daemon=True, name=name).start
         doc = self._server_doc()
-        if doc is not None and getattr(doc.session_context, "session", None) is None:
+        if page_being_built(doc):
             doc.add_next_tick_callback(start)
         else:
             start()
@@ -731,11 +811,14 @@ class CompareView:
         if doc is None:
             fn()
             return
-        try:
-            doc.add_next_tick_callback(once(fn))  # designs' arrays not kept by the callback once shown
-        except Exception:  # the session closed while a worker thread was computing: nothing to show
+
+        def closed():  # the session closed while a worker thread was computing: nothing to show
             if self._sweep_cancel is not None:
                 self._sweep_cancel.set()
+
+        # designs' arrays not kept by the callback once shown (``once``); and not shown between the page's first
+        # pull and its "document ready", where Panel drops changes (a link's designs found at hand come then)
+        next_tick(doc, partial(when_page_ready, once(fn)), closed)
 
     # -- the designs shown ---------------------------------------------------------
     def _request_update(self):
@@ -782,7 +865,10 @@ class CompareView:
         held = self._display.get(key)
         if held is not None and held[0] is array:
             return held[1]
-        value = self._MAKERS[kind](array)
+        value = SHARED_VIEWS.get(kind, (array,))
+        if value is None:
+            value = self._MAKERS[kind](array)
+            SHARED_VIEWS.put(kind, (array,), value)
         self._display[key] = (array, value)
         return value
 
@@ -946,7 +1032,7 @@ class CompareView:
         # and shown once the tab is: a difference made after the student left the tab waits, as the tab's other
         # updates do (its views are out of the page meanwhile)
         shown = lambda outcome: self._when_shown(lambda: made(outcome))()  # noqa: E731
-        if off_the_loop(lambda: _ab_shown(a, b, metric), shown, lambda exc: f"{type(exc).__name__}: {exc}"):
+        if off_the_loop(lambda: _ab_shared(a, b, metric), shown, lambda exc: f"{type(exc).__name__}: {exc}"):
             self.ab_text.object = "Computing the A/B difference..."
 
     def _show_ab(self, a, b, metric, outcome):

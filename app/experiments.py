@@ -16,6 +16,7 @@ from camsim_core.errors import CamsimError
 
 from .curves import Curve, CurvesPlot
 from .safe_text import md_text
+from .shown import next_tick
 from .views import once
 
 __all__ = ["ExperimentsView", "sensors_curves", "sensors_plot"]
@@ -126,7 +127,7 @@ class ExperimentsView:
         except Exception as exc:  # never a dead page
             outcome = (None, f"**Failed:** {type(exc).__name__}: {md_text(exc)}")
         if doc is not None and doc.session_context is not None:
-            doc.add_next_tick_callback(once(self._show, *outcome))  # records not kept by the callback once shown
+            next_tick(doc, once(self._show, *outcome))  # records not kept by the callback once shown
         else:
             self._show(*outcome)
 

@@ -36,7 +36,7 @@ from .number_slider import NumberSlider
 from .physical import SensorControls
 from .quality import QualityView
 from .safe_text import md_text
-from .shown import WhenShown, now
+from .shown import WhenShown, next_tick, now, page_being_built
 from .state import (BITS_CHOICES, COMPARE_PARAMETERS, PAGE_PARAMETERS, TAB_NAMES, URL_PARAMETERS, VIEW_PARAMETERS,
                     ExplorerState, Runner)
 from .typed_text import TypedTextWatch
@@ -208,7 +208,7 @@ def _later(fn):
     """Run ``fn`` on the next tick of this session's event loop (now, outside a server)."""
     doc = pn.state.curdoc
     if doc is not None and doc.session_context is not None:
-        doc.add_next_tick_callback(fn)
+        next_tick(doc, fn)
     else:
         fn()
 
@@ -296,10 +296,7 @@ def _controls(state, results):
 
         def read():  # in a thread: the read itself runs in a worker process, the event loop never waits for it
             outcome = state.read_upload(filename, content)
-            try:
-                doc.add_next_tick_callback(partial(show, outcome))
-            except Exception:  # the session closed while the file was read: nothing to show
-                pass
+            next_tick(doc, partial(show, outcome))  # nothing to show if the session closed meanwhile
 
         state_module.UPLOAD_THREADS.submit(read)  # a thread kept for reads: starting one here waits for the GIL
 
@@ -568,7 +565,12 @@ def _lazy_tabs(state, views):
     state.param.watch(pinned, "pinned")
     show(tabs.active)
     pinned()
-    _open_linked_tab(tabs, TAB_NAMES.index(state.tab), doc)
+    linked = TAB_NAMES.index(state.tab)
+    if linked == _COMPARE_TAB and state.pinned:
+        # a link's comparison: its plots are made with the page (CompareView), so the page is built on the tab;
+        # switched to on the first tick, its ~250 models were made and added to the page on the event loop
+        tabs.active = linked
+    _open_linked_tab(tabs, linked, doc)
     views["tabs"] = tabs
     views["restyle_tab"] = lambda: restyle(tabs.active)  # after a change of theme (presentation mode)
     return tabs
@@ -580,10 +582,11 @@ def _open_linked_tab(tabs, index, doc):
     The page is built on the Results tab and switches on its session's first tick, as a student's click
     would: built on the Compare tab, the tab's plots added when its designs came reached the browser
     after changes to them, during the page's first messages ("reference ... isn't known" in the page,
-    3 links in 4 on a loaded machine)."""
+    3 links in 4 on a loaded machine). A link with pinned designs is built on the Compare tab
+    (:func:`_lazy_tabs`): its plots are made with the page."""
     if index == tabs.active:
         return
-    if doc is not None and doc.session_context is not None and getattr(doc.session_context, "session", None) is None:
+    if page_being_built(doc):
         doc.add_next_tick_callback(lambda: setattr(tabs, "active", index))
     else:
         tabs.active = index
@@ -619,10 +622,7 @@ def _go_background(state):
 
     def deliver(job, outcome):
         show = once(apply, job, outcome)  # not held by Bokeh's callback after it ran (see ``once``)
-        try:
-            doc.add_next_tick_callback(partial(when_page_ready, show))
-        except Exception:  # the session has closed: nothing to show
-            show.drop()
+        next_tick(doc, partial(when_page_ready, show), show.drop)  # dropped if the session has closed
 
     state.set_runner(Runner(state._compute, deliver))
     state.defer = _later

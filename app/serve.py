@@ -401,6 +401,9 @@ def run(args):
     watch_event_loop(server.io_loop.asyncio_loop)  # a line in the log for every stall of the event loop over 100 ms
     watch_garbage_collection()  # and for every garbage collection that held every thread over 100 ms
     _full_collections_when_quiet(server.io_loop)
+    from .shown import serve_on
+
+    serve_on(server.io_loop)  # other threads' callbacks to a page go through this loop (``shown.next_tick``)
     sys.setswitchinterval(GIL_SWITCH_S)
     try:
         server.io_loop.start()

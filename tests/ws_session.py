@@ -110,7 +110,9 @@ class WsSession:
         self.ws = await websocket_connect(request, subprotocols=["bokeh", token], max_message_size=1 << 30)
         await self._message()  # ACK
         await self._send("PULL-DOC-REQ", {})
-        _, reply = await self._message()
+        header, reply = await self._message()
+        while header["msgtype"] == "PATCH-DOC":  # changes made before the pull: BokehJS drops them (the pull has them)
+            header, reply = await self._message()
         _walk(reply["doc"], self.models)
         self.status_id = self.find("camsim-status", "HTML")
         self._reader = asyncio.ensure_future(self._read())

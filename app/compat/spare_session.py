@@ -127,6 +127,8 @@ def _serialize_when_settled(session, state, wanted, speculative):
 
 #: The longest a page's first pull waits for its first result before it is serialized anyway (s).
 PULL_SETTLE_S = 10.0
+#: Serializations off the event loop a first pull tries (the page changed during each) before Bokeh's own.
+PULL_TRIES = 3
 
 
 def serialize_built_page(session):
@@ -161,13 +163,16 @@ def _pull_waits_for_the_first_result(session, state):
         deadline = time.monotonic() + PULL_SETTLE_S
         while state.computing and time.monotonic() < deadline:
             await asyncio.sleep(POLL_S / 5)
-        unchanged = _Unchanged(doc)
-        try:
-            serialized = await _build_off_loop.run_in_builder(doc.to_json)
-        except Exception:  # changed under the serializer
-            serialized = None
-        finally:
-            unchanged.stop()
+        for _ in range(PULL_TRIES):  # a page whose designs are computing changes as each comes: serialized again
+            unchanged = _Unchanged(doc)
+            try:
+                serialized = await _build_off_loop.run_in_builder(doc.to_json)
+            except Exception:  # changed under the serializer
+                serialized = None
+            finally:
+                unchanged.stop()
+            if serialized is not None and unchanged.holds():
+                break
         if serialized is None or not unchanged.holds():
             _log.info("a page's pull came before its serialization and the page changed meanwhile: serialized "
                       "on the event loop")
