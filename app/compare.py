@@ -334,6 +334,46 @@ def _ab_shown(a, b, metric):
             _aspect(ab["delta_e"]))
 
 
+def _same(a, b):
+    """Whether arrays ``a`` and ``b`` show the same: the same array, or equal values of the same shape and type."""
+    return a is b or (a is not None and b is not None and a.shape == b.shape and a.dtype == b.dtype
+                      and np.array_equal(a, b))
+
+
+def slot_order(shown, designs):
+    """Which of the tab's design slots shows each design: ``designs`` is ``[(name, rendered image), ...]``,
+    ``shown`` what each slot shows now (``(name, rendered image, dE map)`` or None). Returns the slot of each
+    design, then the slots left free (hidden).
+
+    A design a slot shows already (the same image array) keeps that slot, then one a slot showed under the same
+    name (the live design after a move), then the first free slots. Designs are shown in their slots' order
+    (:meth:`CompareView.designs`), so pinning the live design keeps it where it is: with the live design always
+    first, each pin shifted every design by one slot and sent all their images again (8 images, ~9 MB, at the
+    fourth pin of a frame-sized chart; moving the slots instead cost the browser more than sending them).
+
+    Examples
+    --------
+    >>> a, b, c = np.zeros(1), np.zeros(1), np.zeros(1)
+    >>> shown = [("live", a, None), ("d1", b, None), None, None, None]
+    >>> slot_order(shown, [("d1", b), ("d2", a)])  # the live design pinned as d2: it stays in its slot
+    [1, 0, 2, 3, 4]
+    >>> slot_order(shown, [("live", c), ("d1", b)])  # a live move: the live design keeps its slot
+    [0, 1, 2, 3, 4]
+    """
+    order, free = [None] * len(designs), list(range(len(shown)))
+    for same in (lambda s, d: s[1] is d[1], lambda s, d: s[0] == d[0]):
+        for i, design in enumerate(designs):
+            if order[i] is None:
+                j = next((j for j in free if shown[j] is not None and same(shown[j], design)), None)
+                if j is not None:
+                    order[i] = j
+                    free.remove(j)
+    for i in range(len(designs)):
+        if order[i] is None:
+            order[i] = free.pop(0)
+    return order + free
+
+
 def _ab_shared(a, b, metric):
     """:func:`_ab_shown`, made once per pair of designs' arrays for the whole server (:data:`SHARED_VIEWS`): a
     class opening one link shows the same pair."""
@@ -907,7 +947,18 @@ class CompareView:
             self._display.pop(key, None)
 
     def designs(self):
-        """The DesignResults compared: the live design (unless equal to a pinned one), then the pinned ones."""
+        """The DesignResults compared, in the order the tab shows them: the live design (unless equal to a pinned
+        one) and the pinned ones, each design where its slot is (:func:`slot_order`: a design keeps its place, the
+        live design takes the first free one; before any is shown, the live design first)."""
+        return self._in_slot_order(self._designs())
+
+    def _in_slot_order(self, results):
+        if not self._built:
+            return results
+        order = slot_order(self._shown, [(r.name, r.rendered) for r in results])[:len(results)]
+        return [r for _, r in sorted(zip(order, results), key=lambda pair: pair[0])]
+
+    def _designs(self):
         key = self._scene_key()
         # a stored result carries the name it was computed under: show the current one (a shallow copy)
         pinned = [dataclasses.replace(r, name=p["name"]) for p, r in
@@ -941,30 +992,31 @@ class CompareView:
             self._ensure_plots(_aspect(results[0].rendered) if results else None)
             if self.mapper.high != top:
                 self.mapper.high = top  # every design's dE map recoloured in the browser, no map sent again
-            for i in range(SLOTS):
+            order = slot_order(self._shown, [(r.name, r.rendered) for r in results])
+            for i, j in enumerate(order):
                 if i < len(results):
                     r = results[i]
                     aspect = _aspect(r.rendered)
-                    self._fit_view(self.render_views[i], aspect)
-                    self.de_views[i].fit(aspect)
+                    self._fit_view(self.render_views[j], aspect)
+                    self.de_views[j].fit(aspect)
                     de = self._de_map(r, metric)
                     # a live move re-sends the live design's images only; the arrays themselves are compared
                     # (identity), never a reused id
-                    old = self._shown[i] or (None, None, None)
+                    old = self._shown[j] or (None, None, None)
                     if old[1] is not r.rendered:
-                        self.render_views[i].show_view(*self._prepared("render", r.rendered), f"{r.name}: rendered")
+                        self.render_views[j].show_view(*self._prepared("render", r.rendered), f"{r.name}: rendered")
                     elif old[0] != r.name:
-                        self.render_views[i].figure.title.text = f"{r.name}: rendered"
+                        self.render_views[j].figure.title.text = f"{r.name}: rendered"
                     label = f"{r.name}: {metric if r.error_map(metric) is not None else 'CIELAB'} dE"
-                    if old[2] is not de:
-                        self.de_views[i].show_view(*self._prepared("de", de), label)
-                    elif self.de_views[i].figure.title.text != label:
-                        self.de_views[i].figure.title.text = label
-                    self._shown[i] = (r.name, r.rendered, de)
+                    if not _same(old[2], de):
+                        self.de_views[j].show_view(*self._prepared("de", de), label)
+                    elif self.de_views[j].figure.title.text != label:
+                        self.de_views[j].figure.title.text = label
+                    self._shown[j] = (r.name, r.rendered, de)
                 else:
-                    self._shown[i] = None
-                if self.slots[i].visible != (i < len(results)):
-                    self.slots[i].visible = i < len(results)
+                    self._shown[j] = None
+                if self.slots[j].visible != (i < len(results)):
+                    self.slots[j].visible = i < len(results)
             self.histogram.show([(r.name, self._prepared("hist", self._de_map(r, metric))) for r in results], metric,
                                 self.colours(results))
         self._forget_display(results, metric)

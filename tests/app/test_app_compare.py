@@ -63,14 +63,20 @@ def test_each_pinned_design_is_computed_once(compared, monkeypatch):
 
     monkeypatch.setattr(module, "evaluate_design", spy)
     state.noise_sigma = 3.0  # the live design changes; the pinned ones are not recomputed
-    sent = [v.source.data["image"][0] for v in view.render_views]
+    def images():  # design name -> the image its slot holds
+        return {v.figure.title.text.rpartition(":")[0]: v.source.data["image"][0]
+                for v, slot in zip(view.render_views, view.slots) if slot.visible}
+
+    sent = images()
     state.noise_sigma = 4.0  # another live move re-sends the live design's images only
-    now = [v.source.data["image"][0] for v in view.render_views]
-    assert now[0] is not sent[0] and not np.array_equal(now[0], sent[0])
-    assert now[1] is sent[1] and now[2] is sent[2]
+    now = images()
+    assert set(now) == {"live", "DCS-200", "cones"}
+    assert now["live"] is not sent["live"] and not np.array_equal(now["live"], sent["live"])
+    assert now["DCS-200"] is sent["DCS-200"] and now["cones"] is sent["cones"]
     view.rename("cones", "human cones")
     assert calls == []
-    assert [d["name"] for d in json.loads(view.status.object)["designs"]] == ["live", "DCS-200", "human cones"]
+    # each design where it was shown: the live design after the two pinned from it
+    assert [d["name"] for d in json.loads(view.status.object)["designs"]] == ["DCS-200", "human cones", "live"]
     state.scene = "bfgb128"  # a shared setting: every pinned design is recomputed, once
     assert sorted(calls) == ["DCS-200", "human cones"]
     assert all(total == 2 and "Computing 2 pinned design(s) on bfgb128" in text for total, text, _ in busy)
@@ -322,8 +328,8 @@ def test_a_live_move_sends_views_made_in_the_computing_thread(monkeypatch):
                             lambda a, fn=fn, kind=kind: made.append((kind, threading.get_ident())) or fn(a))
     state.noise_sigma = 3.0
     settle(state, outcomes)
-    live = view.designs()[0]
-    assert live.params["noise_sigma"] == 3.0 and view._shown[0][1] is live.rendered
+    live = next(r for r in view.designs() if r.name == "live")
+    assert live.params["noise_sigma"] == 3.0 and any(s is not None and s[1] is live.rendered for s in view._shown)
     assert {kind for kind, _ in made} == {"render", "de", "hist", "top"}, made
     assert all(thread != loop for _, thread in made), made
 
@@ -488,3 +494,28 @@ def test_a_pinned_design_is_shown_before_its_image_quality_measures_which_follow
     assert f'data-value="{cones["ssim"]!r}"' in view.table.object and f'data-value="{cones["psnr_db"]!r}"' in view.table.object
     assert len(module.SHARED_DESIGNS) == 1 and counted == ["human-cones"]
 
+
+
+def test_pinning_the_live_design_keeps_every_design_in_its_place():
+    """The live design was shown first, so each pin shifted every design by one slot and the tab sent every
+    design's two images again (8 images, ~9 MB, at the fourth pin of a frame-sized chart). A design keeps its
+    slot, the live design pinned stays where it was, and the tab's order (table, status) is the slots' order."""
+    state = ExplorerState()
+    view = CompareView(state)
+    view.pin("DCS-200")
+    state.camera = "human-cones"
+
+    def images():  # design name -> (rendered image, dE map) its slot holds, in the page's order
+        return {r.figure.title.text.rpartition(":")[0]: (r.source.data["image"][0], d.source.data["image"][0])
+                for r, d, slot in zip(view.render_views, view.de_views, view.slots) if slot.visible}
+
+    before = images()
+    assert list(before) == ["DCS-200", "live"]
+    view.pin("cones")  # the live design, pinned: shown as "cones" where it was
+    after = images()
+    assert list(after) == ["DCS-200", "cones"] == [r.name for r in view.designs()]
+    assert all(a is b for a, b in zip(after["DCS-200"], before["DCS-200"]))
+    assert all(a is b for a, b in zip(after["cones"], before["live"]))  # nothing sent again
+    state.noise_sigma = 2.0  # a new live design: the first free slot, after the pinned ones
+    assert list(images()) == ["DCS-200", "cones", "live"]
+    assert [d["name"] for d in json.loads(view.status.object)["designs"]] == ["DCS-200", "cones", "live"]

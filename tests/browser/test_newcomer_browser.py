@@ -361,7 +361,8 @@ def test_compare_tab_with_three_cameras_fits_1366_lines_up_images_and_sweeps_onl
         pin(page, "imx")
         page.select("w-camera", "human-cones")
         page.wait_for(lambda s: s["params"]["camera"] == "human-cones" and not s["computing"])
-        s = wait_compare(page, lambda s: [d["name"] for d in s["designs"]] == ["live", "dcs", "imx"] and not s["busy"])
+        # each design where it was shown: the live design after the two pinned from it
+        s = wait_compare(page, lambda s: [d["name"] for d in s["designs"]] == ["dcs", "imx", "live"] and not s["busy"])
         shapes = {d["name"]: d["shape"] for d in s["designs"]}
         assert shapes["imx"] != shapes["dcs"], shapes  # designs of other pixel counts
 
