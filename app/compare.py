@@ -188,6 +188,8 @@ class SharedViews:
     0.0
     >>> views.get("sum", (np.zeros(3),)) is None  # equal values, another array
     True
+    >>> del a; len(views)  # the array freed, its entry with it
+    0
     """
 
     def __init__(self):
@@ -202,11 +204,17 @@ class SharedViews:
         return None
 
     def put(self, kind, arrays, value):
-        refs = tuple(weakref.ref(a) for a in arrays)
+        key = (kind, tuple(map(id, arrays)))
+        items = self._items
+
+        def gone(ref):  # an array of the entry is freed: the entry goes with it (its id may be reused)
+            held = items.get(key)
+            if held is not None and any(r is ref for r in held[0]):
+                items.pop(key, None)  # one dict operation: no lock needed (and none taken in a collection)
+
+        refs = tuple(weakref.ref(a, gone) for a in arrays)
         with self._lock:
-            for key in [k for k, (rs, _) in self._items.items() if any(r() is None for r in rs)]:
-                del self._items[key]  # arrays gone: their ids may be reused
-            self._items[(kind, tuple(map(id, arrays)))] = (refs, value)
+            items[key] = (refs, value)
 
     def __len__(self):
         return len(self._items)

@@ -34,6 +34,12 @@ def calls(monkeypatch):
 
     monkeypatch.setattr(charts, "chart", chart)
     monkeypatch.setattr(cc, "auto_exposure", auto_exposure)
+    # no chart another test's session still holds (sessions share charts by name): each chart here is made
+    import weakref
+
+    import camsim_explorer.state as state_module
+
+    monkeypatch.setattr(state_module, "_SHARED_CHARTS", weakref.WeakValueDictionary())
     return seen
 
 
