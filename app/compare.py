@@ -516,6 +516,7 @@ class CompareView:
         self._sweep_cancel = None
         self._computing = False
         self.ab = None  # (name A, name B, ab_difference) shown
+        self._ab_chosen = None  # the (A, B) names the tab chose itself, not the student
         self._ab_inputs = None  # the arrays the A/B map was computed from (identity)
         self._live = (None, None, None)  # (pipeline result, metric, DesignResult)
         self._pending = False
@@ -1034,7 +1035,14 @@ class CompareView:
         self.b_select.options = names
         if len(names) >= 2:
             self.a_select.value = a if a in names else names[0]
-            self.b_select.value = b if b in names and b != self.a_select.value else next(n for n in names if n != self.a_select.value)
+            shape = next(r.shape for r in results if r.name == self.a_select.value)
+            others = [r for r in results if r.name != self.a_select.value]
+            # B chosen here (not by the student) is chosen again as designs come: the first other design of A's
+            # geometry (the A/B difference needs one), else the first other
+            ours = (a, b) == self._ab_chosen and not any(r.name == b and r.shape == shape for r in others)
+            if ours or not (b in names and b != self.a_select.value):
+                self.b_select.value = next((r.name for r in others if r.shape == shape), others[0].name)
+                self._ab_chosen = (self.a_select.value, self.b_select.value)
         self.update_ab(results)
         self._status(results, top)
 

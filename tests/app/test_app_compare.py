@@ -519,3 +519,24 @@ def test_pinning_the_live_design_keeps_every_design_in_its_place():
     state.noise_sigma = 2.0  # a new live design: the first free slot, after the pinned ones
     assert list(images()) == ["DCS-200", "cones", "live"]
     assert [d["name"] for d in json.loads(view.status.object)["designs"]] == ["DCS-200", "cones", "live"]
+
+
+def test_the_first_a_b_pair_is_of_one_geometry_when_there_is_one():
+    """The designs are listed in their places, the live design after the pinned ones: with a camera of another
+    pixel count pinned second, the first A/B pair (the first two designs) could not be compared ("A/B not
+    available") although the first design and the live one could."""
+    state = ExplorerState()
+    view = CompareView(state)
+    view.pin("dcs")
+    state.camera = "imx174"  # another sensor: another pixel count
+    view.pin("imx")
+    state.camera = "human-cones"
+    names = [r.name for r in view.designs()]
+    shapes = {r.name: r.shape for r in view.designs()}
+    assert names == ["dcs", "imx", "live"] and shapes["imx"] != shapes["dcs"] == shapes["live"]
+    assert (view.a_select.value, view.b_select.value) == ("dcs", "live")
+    assert view.ab is not None and json.loads(view.status.object)["ab"]["b"] == "live"
+    view.b_select.value = "imx"  # the student's own pair is kept, and told why it cannot be shown
+    state.noise_sigma = 1.0
+    assert (view.a_select.value, view.b_select.value) == ("dcs", "imx")
+    assert "not available" in view.ab_text.object
