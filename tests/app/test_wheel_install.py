@@ -109,8 +109,11 @@ def _fresh_environment(folder, wheel):
     """A new virtual environment with only ``wheel`` installed; the dependencies are this environment's."""
     subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(folder)], check=True, timeout=120)
     python = folder / "bin" / "python"
+    # without the caller's PYTHONPATH: an empty entry in it is the working directory, the checkout, where pip found
+    # camsim already installed (its egg-info) and installed nothing
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     out = subprocess.run([sys.executable, "-m", "pip", "--python", str(python), "install", "--quiet", "--no-deps",
-                          "--no-index", str(wheel)], capture_output=True, text=True, timeout=300)
+                          "--no-index", str(wheel)], capture_output=True, text=True, timeout=300, env=env)
     assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-3000:]
     purelib = subprocess.run([str(python), "-I", "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
                              capture_output=True, text=True, check=True).stdout.strip()
