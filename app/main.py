@@ -635,6 +635,7 @@ def create_app(scene=None):
     _quiet_known_warnings()
     pn.extension(notifications=False, raw_css=[_PRESENT_CSS])
     state = _new_state(scene)
+    first_scene = state.scene  # before a link's parameters: the scene a page of this server opens with (Start over)
     with _LIVE_LOCK:
         LIVE_STATES.add(state)
         if pn.state.curdoc is not None:
@@ -689,6 +690,13 @@ def create_app(scene=None):
         views["restyle_tab"]()
 
     present.param.watch(on_present, "value")
+    start_over = pn.widgets.Button(label="Start over", css_classes=["w-start-over"], sizing_mode="stretch_width",
+                                   description="Back to the design a new page opens with: its scene, the default "
+                                               "camera and settings, the Results tab. Pinned designs and uploaded "
+                                               "scenes stay.")
+    # on the next tick, as the session's own callback: Panel runs a button's click outside the document's lock,
+    # where the views' changes to their plots are refused ("_pending_writes should be non-None")
+    start_over.on_click(lambda event: state.defer(lambda: (results.fit(), state.start_over(first_scene))))
     # Not a collapsed Card: a Card hides its children by setting their `visible` in the browser, which the
     # next update from the server undoes, and each round makes the browser lay the whole page out again.
     show_diagnostics = pn.widgets.Checkbox(label="Show diagnostics (parameters computed, steps run, engine time)",
@@ -708,7 +716,7 @@ def create_app(scene=None):
     _undelayed(controls)
     template = _Template(
         title="camsim explorer: a camera design on a hyperspectral scene",
-        sidebar=[present, *controls],
+        sidebar=[pn.Row(present, start_over, sizing_mode="stretch_width", margin=0), *controls],
         main=[notice, body, alert],
         sidebar_width=330,
         favicon=FAVICON,

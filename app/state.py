@@ -901,6 +901,36 @@ class ExplorerState(param.Parameterized):
             self.scene = key
 
     # -- reproducible state ----------------------------------------------------
+    def start_over(self, scene=None):
+        """Back to the design a new page opens with: ``scene`` (default: the parameter's default), the default
+        camera and every other design and view setting at its default, the Results tab; one computation.
+
+        What the session collected is kept: the pinned designs and the sweep (a comparison to go on with),
+        and the scenes uploaded or charts made (still in the scene list). Returns True.
+
+        Examples
+        --------
+        >>> s = ExplorerState(start=False)
+        >>> _ = s.param.update(noise_sigma=5.0, camera="human-cones", de_scale="fixed 0-20")
+        >>> s.start_over()
+        True
+        >>> (s.noise_sigma, s.camera, s.de_scale)
+        (0.0, 'kodak-dcs200-ir', 'data')
+        """
+        names = URL_PARAMETERS + VIEW_PARAMETERS + ("tab",)
+        values = {name: self.param[name].default for name in names}
+        if scene is not None:
+            values["scene"] = scene
+        self._pending_fit = self._built = None  # a chart fitted for the old design is not wanted any more
+        self._fitted.clear()
+        try:
+            self._updating = True  # one computation for all of it, not one per parameter
+            self.param.update(**values, message="")
+        finally:
+            self._updating = False
+        self.recompute()
+        return True
+
     def to_dict(self):
         """The parameters as plain JSON values (with the pinned designs and the sweep)."""
         return {**self.design_params(), **{p: getattr(self, p) for p in VIEW_PARAMETERS},

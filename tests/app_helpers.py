@@ -129,6 +129,7 @@ class Page:
 
     def __init__(self, browser, url):
         self.page = new_page(browser)
+        self.viewport = self.page.viewport_size
         self.console = []
         self.page.set_default_timeout(TIMEOUT * 1000)
         self.page.on("console", lambda m: self.console.append((m.type, f"{m.text} ({m.location.get('url', '')})")))
@@ -215,6 +216,42 @@ class Page:
 
     def close(self):
         self.page.close()
+
+    def start_over(self, fresh, timeout=30.0):
+        """Press the page's Start over button and wait until the page is as a new page was: ``fresh`` is that
+        page's status, read when it had its first result. True once the parameters, the images computed (their
+        hashes), the tab shown and the message are the new page's, at the page's first size; False if anything
+        else holds (presentation mode on, pinned designs, the page or its session gone, not back within
+        ``timeout`` s): the caller then
+        opens a new page. The console messages gathered so far are dropped."""
+        from playwright.sync_api import Error as PlaywrightError
+
+        def same(s):
+            return (not s.get("computing") and s.get("params") == fresh["params"]
+                    and s.get("raw_hash") == fresh["raw_hash"] and s.get("rendered_hash") == fresh["rendered_hash"]
+                    and s.get("mean_de") == fresh["mean_de"] and not s.get("message"))
+
+        try:
+            if self.page.is_closed():
+                return False
+            if self.page.viewport_size != self.viewport:  # a test looked at another screen size
+                self.page.set_viewport_size(self.viewport)
+            if self.page.evaluate("() => document.body.classList.contains('camsim-present')"):
+                return False
+            self.page.locator(".w-start-over button").first.click(timeout=timeout * 1000)
+            self.wait_for(same, timeout=timeout)
+            eventually(lambda: _assert_tab_shown(self.page, "Results"), timeout=timeout)
+            if "pinned=" in self.page.evaluate("() => window.location.search"):  # pinned designs stay through Start over (and compute on each change)
+                return False
+        except (AssertionError, PlaywrightError):
+            return False
+        self.console.clear()
+        return True
+
+
+def _assert_tab_shown(page, title):
+    active = page.locator(".camsim-tabs .bk-tab.bk-active").all_inner_texts()
+    assert active == [title], active
 
 
 # A wait polls the page every POLL seconds while the server works, so what a poll reads is read in one call into

@@ -133,3 +133,38 @@ def page(browser, server):
     pg = Page(browser, server)
     yield pg
     pg.close()
+
+
+@pytest.fixture(scope="module")
+def _module_page(browser):
+    """The page :func:`shared_page` hands to the tests of a module (held here, closed after the last)."""
+    held = {}
+    yield held
+    if held.get("page") is not None:
+        held["page"].close()
+
+
+@pytest.fixture
+def shared_page(_module_page, browser, server):
+    """A page of the explorer that the tests of a module take in turn, each from the page's Start over.
+
+    Opening a page costs about 4.5 s of CPU (Chromium, the server, Playwright's driver); Start over (the
+    button a student presses) costs one computation. Each test gets a page as new: the parameters, the images
+    computed (their hashes), the tab shown and the message are those of the page when it first showed its
+    result, checked (``Page.start_over``); a page left otherwise (presentation mode, a dialog, closed, not
+    back within 30 s) is closed and a new one opened. A test that needs a page no other test has touched
+    (what the server sends with the page, its first messages) uses ``page``.
+    """
+    from app_helpers import Page, server_gone
+
+    gone = server_gone(server)
+    if gone:
+        pytest.fail(gone)
+    pg = _module_page.get("page")
+    if pg is not None and not pg.start_over(_module_page["fresh"]):
+        pg.close()
+        pg = None
+    if pg is None:
+        pg = _module_page["page"] = Page(browser, server)
+        _module_page["fresh"] = pg.status()
+    yield pg

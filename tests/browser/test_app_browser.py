@@ -10,10 +10,16 @@ import pytest
 
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
-from app_helpers import (FIGURES_JS, IMAGE_VIEWS, POLL, Page, background_share, eventually, figures, settled_shot,
+from app_helpers import (FIGURES_JS, IMAGE_VIEWS, POLL, Page, active_tab, background_share, wait_compare, eventually, figures, settled_shot,
                          shot_until, shot_until_changed, shows_whole_image, stable_boxes, wait_until)
 
 pytestmark = pytest.mark.browser
+
+
+@pytest.fixture
+def page(shared_page):
+    """The module's page, as new for each test (``shared_page``: Start over, checked, between tests)."""
+    return shared_page
 
 
 def test_raising_noise_raises_the_mean_de_shown(page):
@@ -428,3 +434,67 @@ def test_save_and_share_downloads_what_the_page_shows_and_loads_parameters(page,
     page.page.locator(".w-json-upload input[type=file]").first.set_input_files(str(tmp_path / "bad.json"))
     page.wait_for_alert("not JSON")
     assert page.params()["noise_sigma"] == 3.0
+
+
+def test_start_over_gives_back_a_new_pages_design_and_keeps_the_pinned_ones(browser, server):
+    """Start over: the design, the images, the tab and the address of a page just opened (another page, opened
+    fresh, is the reference); the pinned designs stay."""
+    fresh = Page(browser, server)
+    try:
+        new = fresh.status()
+    finally:
+        fresh.close()
+    page = Page(browser, server)
+    try:
+        page.page.locator(".bk-tab").filter(has_text="Compare designs").first.click()
+        box = page.page.locator(".w-pin-name input").first
+        box.fill("before")
+        box.press("Enter")
+        page.page.locator(".w-pin button").first.click()
+        wait_compare(page, lambda s: s["pinned"] == ["before"] and not s["busy"])
+        wait_until(lambda: page.page.evaluate("() => window.location.search"), what="the pinned design in the address",
+                   until=lambda q: "pinned=" in q)
+        page.select("w-scene", "macbeth")
+        page.wait_for(lambda s: s["params"]["scene"].startswith("macbeth") and not s["computing"])
+        page.select("w-camera", "gaussian-3")
+        page.type_number("w-noise", 7)
+        page.page.locator(".w-de-scale button").filter(has_text="fixed 0-20").first.click()
+        changed = page.wait_for(lambda s: s["params"]["noise_sigma"] == 7 and s["params"]["camera"] == "gaussian-3"
+                                and not s["computing"])
+        assert changed["rendered_hash"] != new["rendered_hash"]
+        page.page.locator(".bk-tab").filter(has_text="Scene").first.click()
+        page.page.locator(".w-start-over button").first.click()
+        back = page.wait_for(lambda s: s["params"] == new["params"] and not s["computing"])
+        assert (back["raw_hash"], back["rendered_hash"], back["mean_de"]) == (new["raw_hash"], new["rendered_hash"],
+                                                                              new["mean_de"])
+        wait_until(lambda: active_tab(page), what="the Results tab shown", until=lambda t: t == "Results")
+        # the widgets show the design computed, and the address the pinned design and the new page's values
+        assert page.page.locator(".w-camera select").first.input_value() == "kodak-dcs200-ir"
+        assert float(page.page.locator(".w-noise input").first.input_value()) == 0
+        assert page.page.locator(".w-de-scale button.bk-active").first.inner_text() == "data"
+        url = eventually(lambda: _address_of(new)(page.page.evaluate("() => window.location.href")))
+        assert "before" in url
+        page.shot("start-over")
+        assert page.errors() == []
+    finally:
+        page.close()
+
+
+def _address_of(new):
+    """A check: the address holds the pinned designs, and every other parameter it holds at the value of the
+    design ``new`` (a page's status); returns the address."""
+    import json
+    from urllib.parse import parse_qs, urlsplit
+
+    def check(url):
+        query = {k: v[0] for k, v in parse_qs(urlsplit(url).query).items()}
+        assert "pinned" in query, url
+        wanted = dict(new["params"], tab="results", de_scale="data")
+        for key, text in query.items():
+            if key == "pinned":
+                continue
+            want = wanted[key]
+            assert (text if isinstance(want, str) else json.loads(text)) == want, (key, text, want)
+        return url
+
+    return check

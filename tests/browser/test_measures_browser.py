@@ -9,6 +9,12 @@ from app_helpers import server_log, wait_until
 
 pytestmark = pytest.mark.browser
 
+
+@pytest.fixture
+def page(shared_page):
+    """The module's page, as new for each test (``shared_page``: Start over, checked, between tests)."""
+    return shared_page
+
 #: Light levels (x the scene's) of the ladder: the default, then up to the widget's largest.
 LIGHTS = (1, 2, 4, 8, 16, 32, 1000)
 
