@@ -696,7 +696,16 @@ def create_app(scene=None):
                                                "scenes stay.")
     # on the next tick, as the session's own callback: Panel runs a button's click outside the document's lock,
     # where the views' changes to their plots are refused ("_pending_writes should be non-None")
-    start_over.on_click(lambda event: state.defer(lambda: (results.fit(), state.start_over(first_scene))))
+    def on_start_over(event):
+        def go():
+            results.fit()
+            if "scene" in views:  # the Scene tab, once built: no clicked pixels or regions, as on a new page
+                views["scene"].reset_spectra()
+            state.start_over(first_scene)
+
+        state.defer(go)
+
+    start_over.on_click(on_start_over)
     # Not a collapsed Card: a Card hides its children by setting their `visible` in the browser, which the
     # next update from the server undoes, and each round makes the browser lay the whole page out again.
     show_diagnostics = pn.widgets.Checkbox(label="Show diagnostics (parameters computed, steps run, engine time)",
@@ -716,7 +725,8 @@ def create_app(scene=None):
     _undelayed(controls)
     template = _Template(
         title="camsim explorer: a camera design on a hyperspectral scene",
-        sidebar=[pn.Row(present, start_over, sizing_mode="stretch_width", margin=0), *controls],
+        sidebar=[present, start_over, *controls],  # one above the other: side by side, presentation mode's
+        # large text put one button over the other
         main=[notice, body, alert],
         sidebar_width=330,
         favicon=FAVICON,

@@ -550,3 +550,13 @@ def busy_label(page):
     ``::before`` and ``::after`` (CSS strings such as ``'"Computing..."'``; ``'none'`` when not busy)."""
     found = _pw(page).evaluate(_BUSY_LABEL_JS)
     return found[0] if found else None
+
+
+#: JS: the labels of the Scene tab's spectra (clicked pixels, regions), or null before the tab is built.
+SPECTRA_JS = """() => {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
+    if (m.constructor && m.constructor.__name__ === 'ColumnDataSource' && 'xs' in m.data && 'label' in m.data)
+      return Array.from(m.data.label);
+  }
+  return null;
+}"""

@@ -10,8 +10,9 @@ import pytest
 
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
-from app_helpers import (FIGURES_JS, IMAGE_VIEWS, POLL, Page, active_tab, background_share, wait_compare, eventually, figures, settled_shot,
-                         shot_until, shot_until_changed, shows_whole_image, stable_boxes, wait_until)
+from app_helpers import (FIGURES_JS, IMAGE_VIEWS, POLL, SPECTRA_JS, Page, active_tab, background_share, eventually,
+                         figures, settled_shot, shot_until, shot_until_changed, shows_whole_image, stable_boxes,
+                         wait_compare, wait_until)
 
 pytestmark = pytest.mark.browser
 
@@ -463,6 +464,11 @@ def test_start_over_gives_back_a_new_pages_design_and_keeps_the_pinned_ones(brow
                                 and not s["computing"])
         assert changed["rendered_hash"] != new["rendered_hash"]
         page.page.locator(".bk-tab").filter(has_text="Scene").first.click()
+        plane = page.page.locator(".camsim-scene-plane .bk-Canvas, .camsim-scene-plane canvas").first
+        plane.wait_for(state="visible")
+        box = wait_until(plane.bounding_box, what="the radiance plane laid out")
+        page.page.mouse.click(box["x"] + 0.4 * box["width"], box["y"] + 0.4 * box["height"])
+        wait_until(lambda: page.page.evaluate(SPECTRA_JS), what="a clicked pixel's spectrum")
         page.page.locator(".w-start-over button").first.click()
         back = page.wait_for(lambda s: s["params"] == new["params"] and not s["computing"])
         assert (back["raw_hash"], back["rendered_hash"], back["mean_de"]) == (new["raw_hash"], new["rendered_hash"],
@@ -473,6 +479,9 @@ def test_start_over_gives_back_a_new_pages_design_and_keeps_the_pinned_ones(brow
         assert float(page.page.locator(".w-noise input").first.input_value()) == 0
         assert page.page.locator(".w-de-scale button.bk-active").first.inner_text() == "data"
         url = eventually(lambda: _address_of(new)(page.page.evaluate("() => window.location.href")))
+        page.page.locator(".bk-tab").filter(has_text="Scene").first.click()  # no spectra, as on a new page
+        wait_until(lambda: page.page.evaluate(SPECTRA_JS), what="the Scene tab's spectra, none",
+                   until=lambda labels: labels == [])
         assert "before" in url
         page.shot("start-over")
         assert page.errors() == []
