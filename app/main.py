@@ -725,8 +725,8 @@ def create_app(scene=None):
     _undelayed(controls)
     template = _Template(
         title="camsim explorer: a camera design on a hyperspectral scene",
-        sidebar=[present, start_over, *controls],  # one above the other: side by side, presentation mode's
-        # large text put one button over the other
+        # the two buttons one above the other: side by side, presentation mode's large text put one over the other
+        sidebar=[present, start_over, *controls],
         main=[notice, body, alert],
         sidebar_width=330,
         favicon=FAVICON,

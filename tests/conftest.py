@@ -151,7 +151,7 @@ def shared_page(_module_page, browser, server):
     Opening a page costs about 4.5 s of CPU (Chromium, the server, Playwright's driver); Start over (the
     button a student presses) costs one computation. Each test gets a page as new: the parameters, the images
     computed (their hashes), the tab shown and the message are those of the page when it first showed its
-    result, checked (``Page.start_over``); a page left otherwise (presentation mode, a dialog, closed, not
+    result, checked (``Page.start_over``); a page left otherwise (presentation mode, pinned designs, closed, not
     back within 30 s) is closed and a new one opened. A test that needs a page no other test has touched
     (what the server sends with the page, its first messages) uses ``page``.
     """
