@@ -11,8 +11,8 @@ import pytest
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
 from app_helpers import (FIGURES_JS, IMAGE_VIEWS, POLL, SPECTRA_JS, Page, active_tab, background_share, eventually,
-                         figures, settled_shot, shot_until, shot_until_changed, shows_whole_image, stable_boxes,
-                         wait_compare, wait_until)
+                         figures, pane_text, settled_shot, shot_until, shot_until_changed, shows_whole_image,
+                         stable_boxes, wait_compare, wait_until)
 
 pytestmark = pytest.mark.browser
 
@@ -479,11 +479,15 @@ def test_start_over_gives_back_a_new_pages_design_and_keeps_the_pinned_ones(brow
         assert float(page.page.locator(".w-noise input").first.input_value()) == 0
         assert page.page.locator(".w-de-scale button.bk-active").first.inner_text() == "data"
         url = eventually(lambda: _address_of(new)(page.page.evaluate("() => window.location.href")))
-        page.page.locator(".bk-tab").filter(has_text="Scene").first.click()  # no spectra, as on a new page
+        assert "before" in url
+        settled_shot(page, name="start-over")
+        # the Scene tab: the scene of a new page, and no spectra
+        page.page.locator(".bk-tab").filter(has_text="Scene").first.click()
+        wait_until(lambda: pane_text(page, ".camsim-scene-meta"), what="the Scene tab's table of the new page's scene",
+                   until=lambda text: "Name\tcacaphony290" in text)
         wait_until(lambda: page.page.evaluate(SPECTRA_JS), what="the Scene tab's spectra, none",
                    until=lambda labels: labels == [])
-        assert "before" in url
-        page.shot("start-over")
+        settled_shot(page, name="start-over-scene")
         assert page.errors() == []
     finally:
         page.close()
