@@ -110,6 +110,9 @@ def chromium_path():
     return path
 
 
+#: The size of a test page, in CSS pixels.
+VIEWPORT = {"width": 1500, "height": 1100}
+
 #: One browser context per browser (``id(browser)`` -> context): its pages share the HTTP cache and compiled
 #: scripts, as a student's tabs do. A page in a context of its own loaded and compiled Bokeh's and Panel's
 #: scripts anew: 2.3 s to a page's first dE against 1.9 s (quiet machine, five pages each).
@@ -117,10 +120,15 @@ _CONTEXTS = {}
 
 
 def new_page(browser):
-    """A new page (1500 x 1100) in ``browser``'s shared context (made on first use, closed with the browser)."""
+    """A new page (:data:`VIEWPORT`) in ``browser``: a Playwright ``BrowserContext`` (the ``browser`` fixture's
+    profile), or a ``Browser``, in its shared context (made on first use, closed with the browser)."""
+    from playwright.sync_api import BrowserContext
+
+    if isinstance(browser, BrowserContext):
+        return browser.new_page()  # its pages have the size it was launched with (the fixture's VIEWPORT)
     ctx = _CONTEXTS.get(id(browser))
     if ctx is None or ctx.browser is not browser or not browser.is_connected():
-        ctx = _CONTEXTS[id(browser)] = browser.new_context(viewport={"width": 1500, "height": 1100})
+        ctx = _CONTEXTS[id(browser)] = browser.new_context(viewport=VIEWPORT)
     return ctx.new_page()
 
 
