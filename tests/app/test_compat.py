@@ -37,7 +37,7 @@ def test_every_hook_applies_to_the_installed_panel_and_bokeh():
     assert set(result) >= {"pages_without_mathjax", "link_values_kept_as_text", "forget_js_links",
                            "flush_stranded_writes", "undelay", "favicon_type", "address_writer", "tornado_app",
                            "skip_busy_tracking", "design_only_for_stylesheets", "build_off_loop",
-                           "served_without_cdn"}
+                           "served_without_cdn", "skip_discarded_defaults"}
 
 
 def test_panel_and_bokeh_are_releases_the_hooks_were_tested_with():
@@ -64,13 +64,16 @@ def test_nothing_is_patched_on_import():
     import sys
 
     code = ("import panel.io.resources as r, panel.io.location as l; from panel.io.state import _state; "
-            "from panel.reactive import Reactive; "
-            "before = (r._panel_use_mathjax, l.parse_query, _state._add_busy_event, Reactive._update_properties); "
+            "from panel.reactive import Reactive; from bokeh.core.has_props import HasProps as H; "
+            "before = (r._panel_use_mathjax, l.parse_query, _state._add_busy_event, Reactive._update_properties, "
+            "H.query_properties_with_values); "
             "import camsim_explorer.main, camsim_explorer.state, camsim_explorer.views, camsim_explorer.serve; "
-            "after = (r._panel_use_mathjax, l.parse_query, _state._add_busy_event, Reactive._update_properties); "
+            "after = (r._panel_use_mathjax, l.parse_query, _state._add_busy_event, Reactive._update_properties, "
+            "H.query_properties_with_values); "
             "assert before == after, 'patched on import'; "
             "import camsim_explorer.compat as c; c.apply(); "
-            "assert (r._panel_use_mathjax, l.parse_query, _state._add_busy_event) != before[:3], 'apply() patched nothing'")
+            "assert (r._panel_use_mathjax, l.parse_query, _state._add_busy_event) != before[:3], 'apply() patched nothing'; "
+            "assert H.query_properties_with_values is not before[4], 'apply() left Bokeh serialization alone'")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-2000:]
 
@@ -200,7 +203,8 @@ def test_the_scan_finds_a_private_use(tmp_path):
                                                  "P._transform_object overrides a private member"])
 
 
-@pytest.mark.parametrize("name", ["camsim_explorer.compat.tuning", "camsim_explorer.compat.plain_text"])
+@pytest.mark.parametrize("name", ["camsim_explorer.compat.tuning", "camsim_explorer.compat.plain_text",
+                                  "camsim_explorer.compat.serialize"])
 def test_compat_examples_run(name):
     import doctest
     import importlib
