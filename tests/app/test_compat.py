@@ -37,7 +37,7 @@ def test_every_hook_applies_to_the_installed_panel_and_bokeh():
     assert set(result) >= {"pages_without_mathjax", "link_values_kept_as_text", "forget_js_links",
                            "flush_stranded_writes", "undelay", "favicon_type", "address_writer", "tornado_app",
                            "skip_busy_tracking", "design_only_for_stylesheets", "build_off_loop",
-                           "served_without_cdn", "skip_discarded_defaults"}
+                           "served_without_cdn", "skip_discarded_defaults", "plain_defaults_once"}
 
 
 def test_panel_and_bokeh_are_releases_the_hooks_were_tested_with():
@@ -65,15 +65,17 @@ def test_nothing_is_patched_on_import():
 
     code = ("import panel.io.resources as r, panel.io.location as l; from panel.io.state import _state; "
             "from panel.reactive import Reactive; from bokeh.core.has_props import HasProps as H; "
+            "from bokeh.core.property.descriptors import PropertyDescriptor as D; "
             "before = (r._panel_use_mathjax, l.parse_query, _state._add_busy_event, Reactive._update_properties, "
-            "H.query_properties_with_values); "
+            "H.query_properties_with_values, D._get_default); "
             "import camsim_explorer.main, camsim_explorer.state, camsim_explorer.views, camsim_explorer.serve; "
             "after = (r._panel_use_mathjax, l.parse_query, _state._add_busy_event, Reactive._update_properties, "
-            "H.query_properties_with_values); "
+            "H.query_properties_with_values, D._get_default); "
             "assert before == after, 'patched on import'; "
             "import camsim_explorer.compat as c; c.apply(); "
             "assert (r._panel_use_mathjax, l.parse_query, _state._add_busy_event) != before[:3], 'apply() patched nothing'; "
-            "assert H.query_properties_with_values is not before[4], 'apply() left Bokeh serialization alone'")
+            "assert H.query_properties_with_values is not before[4], 'apply() left Bokeh serialization alone'; "
+            "assert D._get_default is not before[5], 'apply() left Bokeh defaults alone'")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-2000:]
 
@@ -204,7 +206,7 @@ def test_the_scan_finds_a_private_use(tmp_path):
 
 
 @pytest.mark.parametrize("name", ["camsim_explorer.compat.tuning", "camsim_explorer.compat.plain_text",
-                                  "camsim_explorer.compat.serialize"])
+                                  "camsim_explorer.compat.bokeh_defaults"])
 def test_compat_examples_run(name):
     import doctest
     import importlib

@@ -1,6 +1,7 @@
-"""Bokeh's serialization with the explorer's replacement (``camsim_explorer.compat.serialize``) gives what
-Bokeh's own method gives: the same properties and values for every model of an explorer page, with every
-tab built, and the same behaviour for a property left without a value and a default made per object."""
+"""Bokeh's defaults with the explorer's replacements (``camsim_explorer.compat.bokeh_defaults``) are what
+Bokeh's own methods give: the same properties and values serialized for every model of an explorer page,
+with every tab built; the same behaviour for a property left without a value and a default made per object;
+the same default read for every property of the page left unset; a theme's value, not the kept default."""
 
 from __future__ import annotations
 
@@ -10,13 +11,13 @@ from bokeh.core.property.descriptors import UnsetValueError
 from bokeh.core.property.singletons import Undefined
 from bokeh.document import Document
 
-from camsim_explorer.compat import serialize
+from camsim_explorer.compat import bokeh_defaults
 
 
 @pytest.fixture(scope="module")
 def bokehs_own():
     """Bokeh's own method (kept by the replacement), the replacement installed."""
-    assert serialize.skip_discarded_defaults(), "the replacement does not apply to this Bokeh"
+    assert bokeh_defaults.skip_discarded_defaults(), "the replacement does not apply to this Bokeh"
     return HasProps.query_properties_with_values.original
 
 
@@ -64,8 +65,8 @@ def test_every_model_of_an_explorer_page_serializes_as_bokeh_serializes_it(bokeh
         try:
             theirs = doc.to_json()
         finally:
-            serialize._installed.clear()
-            assert serialize.skip_discarded_defaults()
+            del bokeh_defaults._installed["query_properties_with_values"]
+            assert bokeh_defaults.skip_discarded_defaults()
         assert _strip_buffers(ours) == _strip_buffers(theirs)
     finally:
         _release(template.state, template.body, template)
@@ -113,3 +114,76 @@ def test_include_defaults_is_bokehs_own_answer(bokehs_own):
     r = Range1d(start=2)
     assert r.properties_with_values(include_defaults=True) == bokehs_own(r, lambda d: True, include_defaults=True)
     assert r.properties_with_values(include_defaults=False) == {"start": 2}
+
+
+@pytest.fixture(scope="module")
+def bokehs_own_default():
+    """Bokeh's own ``_get_default`` (kept by the wrapper), the wrapper installed."""
+    from bokeh.core.property.descriptors import PropertyDescriptor
+
+    assert bokeh_defaults.plain_defaults_once(), "the wrapper does not apply to this Bokeh"
+    return PropertyDescriptor._get_default.original
+
+
+def test_every_unset_property_of_an_explorer_page_reads_bokehs_own_default(bokehs_own_default):
+    import numpy as np
+    import panel as pn
+    from bokeh.core.property.descriptors import PropertyDescriptor
+
+    from camsim_explorer.main import _release, create_app
+
+    template = create_app()
+    doc = Document()
+    try:
+        template.server_doc(doc)
+        tabs = next(o for root in template.main for o in root.select(pn.Tabs))
+        compared = 0
+        for index in range(len(tabs.objects)):
+            tabs.active = index
+            for _ in range(2):  # the second time from the kept defaults
+                for model in list(doc.models):
+                    for name in model.properties(_with_props=True):
+                        if name in model._property_values or name in model._unstable_default_values:
+                            continue
+                        descriptor = model.lookup(name)
+                        if not isinstance(descriptor, PropertyDescriptor):
+                            continue  # an alias of another property (read through it)
+                        if descriptor.has_unstable_default(model):
+                            continue  # made per object: Bokeh's own read (not kept)
+                        ours, theirs = descriptor._get_default(model), bokehs_own_default(descriptor, model)
+                        same = ours == theirs or (ours is None and theirs is None) or (
+                            isinstance(ours, float) and np.isnan(ours) and np.isnan(theirs))
+                        assert same, (type(model).__name__, name, ours, theirs)
+                        compared += 1
+        assert compared > 20_000 and len(bokeh_defaults._PLAIN_DEFAULTS) > 500
+    finally:
+        _release(template.state, template.body, template)
+
+
+def test_a_themes_value_is_read_not_the_kept_default(bokehs_own_default):
+    from bokeh.models import Title
+
+    title = Title(text="t")
+    assert title.text_font_size == "13px"  # Bokeh's default, now kept for Title
+    title.apply_theme({"text_font_size": "30px"})  # presentation mode's theme
+    assert title.text_font_size == "30px"
+    title.unapply_theme()
+    assert title.text_font_size == "13px"
+    assert Title(text="u").text_font_size == "13px"
+
+
+def test_a_subclass_overriding_a_default_keeps_its_own(bokehs_own_default):
+    from bokeh.core.properties import Override
+    from bokeh.models import Range1d
+
+    class WideRange(Range1d):
+        end = Override(default=10)
+
+    assert Range1d().end == 1 and WideRange().end == 10 and Range1d().end == 1 and WideRange().end == 10
+
+
+def test_a_mutable_default_is_made_per_object(bokehs_own_default):
+    from bokeh.models import Plot
+
+    a, b = Plot(), Plot()
+    assert a.renderers == [] and a.renderers is not b.renderers  # a list: each plot its own
