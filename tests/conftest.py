@@ -180,4 +180,5 @@ def shared_page(_module_page, browser, server):
     if pg is None:
         pg = _module_page["page"] = Page(browser, server)
         _module_page["fresh"] = pg.status()
+    pg.fresh = _module_page["fresh"]  # the page's status when it was new (what Start over gives back)
     yield pg

@@ -437,60 +437,52 @@ def test_save_and_share_downloads_what_the_page_shows_and_loads_parameters(page,
     assert page.params()["noise_sigma"] == 3.0
 
 
-def test_start_over_gives_back_a_new_pages_design_and_keeps_the_pinned_ones(browser, server):
-    """Start over: the design, the images, the tab and the address of a page just opened (another page, opened
-    fresh, is the reference); the pinned designs stay."""
-    fresh = Page(browser, server)
-    try:
-        new = fresh.status()
-    finally:
-        fresh.close()
-    page = Page(browser, server)
-    try:
-        page.page.locator(".bk-tab").filter(has_text="Compare designs").first.click()
-        box = page.page.locator(".w-pin-name input").first
-        box.fill("before")
-        box.press("Enter")
-        page.page.locator(".w-pin button").first.click()
-        wait_compare(page, lambda s: s["pinned"] == ["before"] and not s["busy"])
-        wait_until(lambda: page.page.evaluate("() => window.location.search"), what="the pinned design in the address",
-                   until=lambda q: "pinned=" in q)
-        page.select("w-scene", "bfgb128")  # a small scene: the pinned design is computed again for it
-        page.wait_for(lambda s: s["params"]["scene"] == "bfgb128" and not s["computing"])
-        page.select("w-camera", "gaussian-3")
-        page.type_number("w-noise", 7)
-        page.page.locator(".w-de-scale button").filter(has_text="fixed 0-20").first.click()
-        changed = page.wait_for(lambda s: s["params"]["noise_sigma"] == 7 and s["params"]["camera"] == "gaussian-3"
-                                and not s["computing"])
-        assert changed["rendered_hash"] != new["rendered_hash"]
-        page.page.locator(".bk-tab").filter(has_text="Scene").first.click()
-        plane = page.page.locator(".camsim-scene-plane .bk-Canvas, .camsim-scene-plane canvas").first
-        plane.wait_for(state="visible")
-        box = wait_until(plane.bounding_box, what="the radiance plane laid out")
-        page.page.mouse.click(box["x"] + 0.4 * box["width"], box["y"] + 0.4 * box["height"])
-        wait_until(lambda: page.page.evaluate(SPECTRA_JS), what="a clicked pixel's spectrum")
-        page.page.locator(".w-start-over button").first.click()
-        back = page.wait_for(lambda s: s["params"] == new["params"] and not s["computing"])
-        assert (back["raw_hash"], back["rendered_hash"], back["mean_de"]) == (new["raw_hash"], new["rendered_hash"],
-                                                                              new["mean_de"])
-        wait_until(lambda: active_tab(page), what="the Results tab shown", until=lambda t: t == "Results")
-        # the widgets show the design computed, and the address the pinned design and the new page's values
-        assert page.page.locator(".w-camera select").first.input_value() == "kodak-dcs200-ir"
-        assert float(page.page.locator(".w-noise input").first.input_value()) == 0
-        assert page.page.locator(".w-de-scale button.bk-active").first.inner_text() == "data"
-        url = eventually(lambda: _address_of(new)(page.page.evaluate("() => window.location.href")))
-        assert "before" in url
-        settled_shot(page, name="start-over")
-        # the Scene tab: the scene of a new page, and no spectra
-        page.page.locator(".bk-tab").filter(has_text="Scene").first.click()
-        wait_until(lambda: pane_text(page, ".camsim-scene-meta"), what="the Scene tab's table of the new page's scene",
-                   until=lambda text: "Name\tcacaphony290" in text)
-        wait_until(lambda: page.page.evaluate(SPECTRA_JS), what="the Scene tab's spectra, none",
-                   until=lambda labels: labels == [])
-        settled_shot(page, name="start-over-scene")
-        assert page.errors() == []
-    finally:
-        page.close()
+def test_start_over_gives_back_a_new_pages_design_and_keeps_the_pinned_ones(shared_page):
+    """Start over: the design, the images, the tab and the address of a page just opened (the status the shared
+    page had when it was opened, new, is the reference); the pinned designs stay."""
+    page, new = shared_page, shared_page.fresh
+    page.page.locator(".bk-tab").filter(has_text="Compare designs").first.click()
+    box = page.page.locator(".w-pin-name input").first
+    box.fill("before")
+    box.press("Enter")
+    page.page.locator(".w-pin button").first.click()
+    wait_compare(page, lambda s: s["pinned"] == ["before"] and not s["busy"])
+    wait_until(lambda: page.page.evaluate("() => window.location.search"), what="the pinned design in the address",
+               until=lambda q: "pinned=" in q)
+    page.select("w-scene", "bfgb128")  # a small scene: the pinned design is computed again for it
+    page.wait_for(lambda s: s["params"]["scene"] == "bfgb128" and not s["computing"])
+    page.select("w-camera", "gaussian-3")
+    page.type_number("w-noise", 7)
+    page.page.locator(".w-de-scale button").filter(has_text="fixed 0-20").first.click()
+    changed = page.wait_for(lambda s: s["params"]["noise_sigma"] == 7 and s["params"]["camera"] == "gaussian-3"
+                            and not s["computing"])
+    assert changed["rendered_hash"] != new["rendered_hash"]
+    page.page.locator(".bk-tab").filter(has_text="Scene").first.click()
+    plane = page.page.locator(".camsim-scene-plane .bk-Canvas, .camsim-scene-plane canvas").first
+    plane.wait_for(state="visible")
+    box = wait_until(plane.bounding_box, what="the radiance plane laid out")
+    page.page.mouse.click(box["x"] + 0.4 * box["width"], box["y"] + 0.4 * box["height"])
+    wait_until(lambda: page.page.evaluate(SPECTRA_JS), what="a clicked pixel's spectrum")
+    page.page.locator(".w-start-over button").first.click()
+    back = page.wait_for(lambda s: s["params"] == new["params"] and not s["computing"])
+    assert (back["raw_hash"], back["rendered_hash"], back["mean_de"]) == (new["raw_hash"], new["rendered_hash"],
+                                                                          new["mean_de"])
+    wait_until(lambda: active_tab(page), what="the Results tab shown", until=lambda t: t == "Results")
+    # the widgets show the design computed, and the address the pinned design and the new page's values
+    assert page.page.locator(".w-camera select").first.input_value() == "kodak-dcs200-ir"
+    assert float(page.page.locator(".w-noise input").first.input_value()) == 0
+    assert page.page.locator(".w-de-scale button.bk-active").first.inner_text() == "data"
+    url = eventually(lambda: _address_of(new)(page.page.evaluate("() => window.location.href")))
+    assert "before" in url
+    settled_shot(page, name="start-over")
+    # the Scene tab: the scene of a new page, and no spectra
+    page.page.locator(".bk-tab").filter(has_text="Scene").first.click()
+    wait_until(lambda: pane_text(page, ".camsim-scene-meta"), what="the Scene tab's table of the new page's scene",
+               until=lambda text: "Name\tcacaphony290" in text)
+    wait_until(lambda: page.page.evaluate(SPECTRA_JS), what="the Scene tab's spectra, none",
+               until=lambda labels: labels == [])
+    settled_shot(page, name="start-over-scene")
+    assert page.errors() == []
 
 
 def _address_of(new):
