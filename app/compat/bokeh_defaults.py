@@ -90,6 +90,22 @@ def _bokeh_methods():
             "_get_default": (PropertyDescriptor, "_get_default")}
 
 
+def _install(name, replacement):
+    """Put ``replacement(original)`` in place of Bokeh's method ``name`` (a key of :data:`BOKEH_SOURCES`), once,
+    and only over the method it was written against; True when in place."""
+    if name in _installed:
+        return True
+    if not matches_bokeh(name):
+        return False
+    owner, attr = _bokeh_methods()[name]
+    original = getattr(owner, attr)
+    new = replacement(original)
+    new.original = original
+    setattr(owner, attr, new)
+    _installed[name] = original
+    return True
+
+
 def matches_bokeh(name="query_properties_with_values"):
     """True when Bokeh's method ``name`` (a key of :data:`BOKEH_SOURCES`) is the one its replacement was
     written against (or is already replaced)."""
@@ -114,16 +130,14 @@ def skip_discarded_defaults():
     >>> Range1d(start=2).properties_with_values(include_defaults=False)
     {'start': 2}
     """
-    if "query_properties_with_values" in _installed:
-        return True
-    if not matches_bokeh("query_properties_with_values"):
-        return False
-    from bokeh.core.has_props import HasProps
+    return _install("query_properties_with_values", _without_discarded_defaults)
+
+
+def _without_discarded_defaults(original):
+    """Bokeh's ``query_properties_with_values`` loop, the keys not to send skipped before their value is made."""
     from bokeh.core.property.descriptors import UnsetValueError
     from bokeh.core.property.singletons import Undefined
     from bokeh.core.property.wrappers import PropertyValueContainer
-
-    original = HasProps.query_properties_with_values
 
     def query_properties_with_values(self, query, *, include_defaults=True, include_undefined=False):
         if include_defaults:  # every value is wanted: Bokeh's own loop
@@ -159,10 +173,7 @@ def skip_discarded_defaults():
             result[key] = value
         return result
 
-    query_properties_with_values.original = original
-    HasProps.query_properties_with_values = query_properties_with_values
-    _installed["query_properties_with_values"] = original
-    return True
+    return query_properties_with_values
 
 
 #: (model class, property name) -> the plain default of that property for that class (see
@@ -195,13 +206,11 @@ def plain_defaults_once():
     >>> Range1d(start=3).end
     1
     """
-    if "_get_default" in _installed:
-        return True
-    if not matches_bokeh("_get_default"):
-        return False
-    from bokeh.core.property.descriptors import PropertyDescriptor
+    return _install("_get_default", _plain_defaults_kept)
 
-    original = PropertyDescriptor._get_default
+
+def _plain_defaults_kept(original):
+    """Bokeh's ``PropertyDescriptor._get_default``, a plain default kept per model class and property."""
     missing = object()
 
     def _get_default(self, obj):
@@ -217,7 +226,4 @@ def plain_defaults_once():
             _PLAIN_DEFAULTS[key] = default
         return default
 
-    _get_default.original = original
-    PropertyDescriptor._get_default = _get_default
-    _installed["_get_default"] = original
-    return True
+    return _get_default
