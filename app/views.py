@@ -163,7 +163,9 @@ def when_page_ready(fn):
     pull to carry them, but the pull has already gone), so a result shown in
     that window would never reach the screen. Before the browser has
     connected, also at once: its pull will carry the changes. Outside a
-    server: at once.
+    server: at once. (``compat.hooks.connected_at_pull`` closes that window
+    for every change, a click's included; this wait stays for a Panel on
+    which that hook does not apply.)
     """
     doc = pn.state.curdoc
     if doc is None or doc.session_context is None or pn.state.loaded:

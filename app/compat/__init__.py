@@ -15,7 +15,7 @@ checks the source of every other module). What is here, and why:
 * :mod:`.hooks` - no MathJax bundle (1.8 MB per first visit), link values
   Panel cannot parse kept as text (an HTTP 500 before), browser-side links
   of closed sessions dropped (a leak), changes Panel queued and forgot sent
-  (lost updates), no 50 ms debounce, the address written once a result is
+  (lost updates), changes made while a page finishes loading sent (Panel dropped them), no 50 ms debounce, the address written once a result is
   shown, a data-URI page icon, the Tornado application for the Host check, and (for
   ``camsim serve`` only) every page's files from this server, never Panel's CDN.
 
@@ -84,6 +84,7 @@ def apply():
                          "(%s); check `pytest tests/app/test_compat.py`", name, version, ", ".join(TESTED[name]))
     hooks.pages_without_mathjax()
     hooks.link_values_kept_as_text()
+    hooks.connected_at_pull()
     tuning.apply()
     bokeh_defaults.skip_discarded_defaults()
     bokeh_defaults.plain_defaults_once()
@@ -93,6 +94,7 @@ def apply():
         "link_values_kept_as_text": "a link value of thousands of digits gives HTTP 500",
         "forget_js_links": "closed sessions' widgets stay in memory",
         "flush_stranded_writes": "a result Panel queued and forgot may not reach the page",
+        "connected_at_pull": "a change made while a page finishes loading (a tab opened) may never reach it",
         "undelay": "changes from the browser wait Panel's 50 ms debounce",
         "favicon_type": "the page icon's type is guessed from its name",
         "plain_text": "text in PlainText panes may be shown as HTML",

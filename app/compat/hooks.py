@@ -15,6 +15,7 @@ from __future__ import annotations
 import logging
 
 __all__ = ["served_without_cdn", "pages_without_mathjax", "link_values_kept_as_text", "forget_js_links", "flush_stranded_writes",
+           "connected_at_pull",
            "undelay", "DataURIFavicon", "address_writer", "tornado_app", "HOOKS"]
 
 _log = logging.getLogger("camsim.explorer")
@@ -135,6 +136,60 @@ def flush_stranded_writes(doc):
     return False
 
 
+def _pull_and_connected():
+    """Bokeh's pull handler (a classmethod), Panel's connected sessions and its dispatch of the events it kept
+    for the connection, or None."""
+    import importlib
+
+    from bokeh.server.session import ServerSession
+
+    pull = ServerSession.__dict__.get("pull")
+    connected = getattr(importlib.import_module("panel.io.state").state, "_connected", None)
+    dispatch = getattr(importlib.import_module("panel.io.document"), "_dispatch_unconnected_events", None)
+    if not isinstance(pull, classmethod) or not hasattr(connected, "get") or dispatch is None:
+        return None
+    return pull, connected, dispatch
+
+
+def connected_at_pull():
+    """A page's session counts as connected (for Panel) once its browser has pulled the document, not only
+    once the page reports itself ready. True when applied.
+
+    Panel drops the changes made in a hold while a session is not connected
+    (``panel.io.document.hold``: "the Document is serialized in full once the
+    session connects"), and it marks a session connected when the page
+    reports "document ready". Between the browser's pull of the document and
+    that report the page is already on the screen (it reports once every view
+    has drawn), and every change a click made there was dropped: the pull
+    that would have carried it had gone. A tab opened in that moment stayed
+    empty for good. Marked connected as soon as the pull's reply is made
+    (the document serialized), the changes after it go to the page as
+    patches, written after the reply on the same websocket.
+    """
+    from bokeh.server.session import ServerSession
+
+    parts = _pull_and_connected()
+    if parts is None:
+        return False
+    pull, connected, dispatch = parts
+    if getattr(pull.__func__, "camsim", False):
+        return True
+    bokehs = pull.__func__
+
+    async def pull_then_connected(cls, message, connection):
+        reply = await bokehs(cls, message, connection)
+        doc = getattr(connection.session, "document", None)
+        if reply is not None and doc is not None and not connected.get(doc):
+            connected[doc] = True
+            dispatch(doc)  # what Panel kept for the connection (custom messages), on the next tick
+        return reply
+
+    pull_then_connected.camsim = True
+    pull_then_connected.original = bokehs
+    ServerSession.pull = classmethod(pull_then_connected)
+    return True
+
+
 def undelay(widget):
     """The widget's changes reach the server at once: Panel holds each change from the browser for 50 ms
     (to gather a burst into one) before acting on it. A burst costs nothing here (a newer change supersedes
@@ -245,6 +300,7 @@ HOOKS = {
     "link_values_kept_as_text": lambda: _has("panel.io.location", "parse_query"),
     "forget_js_links": lambda: _has("panel.links", "Callback", "registry"),
     "flush_stranded_writes": lambda: _write_queue() is not None,
+    "connected_at_pull": lambda: _pull_and_connected() is not None,
     "undelay": lambda: _has("panel.widgets", "FloatSlider") and hasattr(__import__("panel").widgets.FloatSlider(), "_debounce"),
     "favicon_type": lambda: _has("panel.template", "BootstrapTemplate", "_get_favicon_type"),
     "plain_text": lambda: _has("panel.pane", "Str", "_transform_object"),

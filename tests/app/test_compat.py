@@ -37,7 +37,8 @@ def test_every_hook_applies_to_the_installed_panel_and_bokeh():
     assert set(result) >= {"pages_without_mathjax", "link_values_kept_as_text", "forget_js_links",
                            "flush_stranded_writes", "undelay", "favicon_type", "address_writer", "tornado_app",
                            "skip_busy_tracking", "design_only_for_stylesheets", "build_off_loop",
-                           "served_without_cdn", "skip_discarded_defaults", "plain_defaults_once"}
+                           "served_without_cdn", "skip_discarded_defaults", "plain_defaults_once",
+                           "connected_at_pull"}
 
 
 def test_panel_and_bokeh_are_releases_the_hooks_were_tested_with():
@@ -66,16 +67,18 @@ def test_nothing_is_patched_on_import():
     code = ("import panel.io.resources as r, panel.io.location as l; from panel.io.state import _state; "
             "from panel.reactive import Reactive; from bokeh.core.has_props import HasProps as H; "
             "from bokeh.core.property.descriptors import PropertyDescriptor as D; "
+            "from bokeh.server.session import ServerSession as S; "
             "before = (r._panel_use_mathjax, l.parse_query, _state._add_busy_event, Reactive._update_properties, "
-            "H.query_properties_with_values, D._get_default); "
+            "H.query_properties_with_values, D._get_default, S.pull); "
             "import camsim_explorer.main, camsim_explorer.state, camsim_explorer.views, camsim_explorer.serve; "
             "after = (r._panel_use_mathjax, l.parse_query, _state._add_busy_event, Reactive._update_properties, "
-            "H.query_properties_with_values, D._get_default); "
+            "H.query_properties_with_values, D._get_default, S.pull); "
             "assert before == after, 'patched on import'; "
             "import camsim_explorer.compat as c; c.apply(); "
             "assert (r._panel_use_mathjax, l.parse_query, _state._add_busy_event) != before[:3], 'apply() patched nothing'; "
             "assert H.query_properties_with_values is not before[4], 'apply() left Bokeh serialization alone'; "
-            "assert D._get_default is not before[5], 'apply() left Bokeh defaults alone'")
+            "assert D._get_default is not before[5], 'apply() left Bokeh defaults alone'; "
+            "assert S.pull != before[6], 'apply() left the pull alone'")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-2000:]
 
@@ -297,3 +300,27 @@ def test_the_explorer_uses_no_widget_name_panel_2_removes():
         views = {"results": ResultsView(state)}
         for _, build in main.TABS:
             build(state, views, now)
+
+
+def test_a_session_is_connected_for_panel_once_its_document_is_pulled():
+    import asyncio
+    from types import SimpleNamespace
+
+    from bokeh.document import Document
+    from bokeh.server.session import ServerSession
+    from panel.io.state import state
+
+    compat.apply()
+    doc, empty = Document(), Document()
+
+    async def handle_pull(message, connection):  # as Bokeh's: the reply made from the document, or None
+        return "reply" if connection.session.document is doc else None
+
+    def pull(document):
+        connection = SimpleNamespace(session=SimpleNamespace(document=document, _handle_pull=handle_pull))
+        return asyncio.run(ServerSession.pull("message", connection))
+
+    assert not state._connected.get(doc)
+    assert pull(doc) == "reply"
+    assert state._connected.get(doc) is True  # changes made from now on go to the page as patches
+    assert pull(empty) is None and not state._connected.get(empty)  # no reply (a destroyed session): not connected

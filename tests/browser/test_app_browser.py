@@ -10,9 +10,9 @@ import pytest
 
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
-from app_helpers import (FIGURES_JS, IMAGE_VIEWS, POLL, SPECTRA_JS, Page, active_tab, background_share, eventually,
-                         figures, pane_text, settled_shot, shot_until, shot_until_changed, shows_whole_image,
-                         stable_boxes, wait_compare, wait_until)
+from app_helpers import (FIGURES_JS, IMAGE_VIEWS, POLL, SPECTRA_JS, TIMEOUT, Page, active_tab, background_share,
+                         eventually, figures, new_page, pane_text, settled_shot, shot_until, shot_until_changed,
+                         shows_whole_image, stable_boxes, wait_compare, wait_until)
 
 pytestmark = pytest.mark.browser
 
@@ -503,3 +503,37 @@ def _address_of(new):
         return url
 
     return check
+
+
+# Clicks the Scene tab from the page's first script on, as soon as its header is drawn (a student clicking while
+# the page is still being laid out), and records whether Bokeh's document was still loading at that moment.
+_CLICK_SCENE_AT_ONCE = """(() => {
+  const timer = setInterval(() => {
+    const tabs = [];
+    const walk = root => { for (const el of root.querySelectorAll('*')) {
+      if (el.classList.contains('bk-tab')) tabs.push(el); if (el.shadowRoot) walk(el.shadowRoot); } };
+    walk(document);
+    const scene = tabs.find(el => el.textContent.includes('Scene'));
+    if (!scene) return;
+    clearInterval(timer);
+    const doc = window.Bokeh && Bokeh.documents && Bokeh.documents[0];
+    window.camsimClickedWhileLoading = !!doc && !doc.is_idle;
+    scene.click();
+  }, 5);
+})();"""
+
+
+def test_a_tab_clicked_while_the_page_is_still_loading_shows_its_views(browser, server):
+    # The page pulls its document, draws it and then reports itself ready. Panel dropped the changes a click
+    # made in between (counting on the pull to carry them, which had gone): the tab stayed empty for good.
+    page = new_page(browser)
+    try:
+        page.add_init_script(_CLICK_SCENE_AT_ONCE)
+        page.goto(server)
+        page.wait_for_function("() => window.camsimClickedWhileLoading !== undefined", timeout=TIMEOUT * 1000)
+        assert page.evaluate("() => window.camsimClickedWhileLoading"), "the click came after the page was ready"
+        meta = page.locator(".camsim-scene-meta").first
+        meta.wait_for(state="visible", timeout=30_000)
+        eventually(lambda: "cacaphony290" in meta.inner_text())
+    finally:
+        page.close()
