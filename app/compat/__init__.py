@@ -64,7 +64,8 @@ def status():
     out.update(tuning.available())
     out["build_off_loop"] = build_off_loop.matches_bokeh()
     out["skip_discarded_defaults"] = bokeh_defaults.matches_bokeh("query_properties_with_values")
-    out["plain_defaults_once"] = bokeh_defaults.matches_bokeh("_get_default")
+    out["plain_defaults_once"] = bokeh_defaults.matches_bokeh("_get_default") and bokeh_defaults.matches_bokeh(
+        "themed_values")
     return out
 
 
