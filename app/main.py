@@ -31,6 +31,7 @@ from camsim_core.scene.charts import CHART_NAMES, chart_defaults
 from . import compat
 from .compat import hooks as _compat
 from . import state as state_module
+from .body_class import BodyClass
 from .compare import compare_tab
 from .number_slider import NumberSlider
 from .physical import SensorControls
@@ -83,7 +84,6 @@ _PRESENT_CSS = """
 body.camsim-present { --bokeh-font-size: 20px; --base-font-size: 20px; font-size: 20px; --camsim-scale: 1.5; }
 body.camsim-present .bk-input, body.camsim-present label { font-size: 20px; }
 """
-_PRESENT_JS = "document.body.classList.toggle('camsim-present', cb_obj.active)"
 #: How much larger presentation mode makes the controls' text: 1.5 x the browser's 13.3 px (inputs, selects)
 #: and Bootstrap's 12.8 px (buttons) gives 20 and 19.2 px, readable from the back of a room.
 PRESENT_SCALE = 1.5
@@ -680,11 +680,14 @@ def create_app(scene=None):
     tabs = _lazy_tabs(state, views)
     present = pn.widgets.Toggle(label="Presentation mode", css_classes=["w-present"], color="default",
                                 sizing_mode="stretch_width")
-    present.jscallback(value=_PRESENT_JS)
+    # the page's class for presentation mode, set from the server (a jscallback would make Panel look for links
+    # at every tab switch: see camsim_explorer.body_class)
+    present_class = BodyClass(css_class="camsim-present", margin=0, width=0, height=0)
 
     doc = pn.state.curdoc
 
     def on_present(event):
+        present_class.active = event.new
         views["grid"].ncols = 2 if event.new else 3
         show_presentation(doc, event.new)
         views["restyle_tab"]()
@@ -726,7 +729,7 @@ def create_app(scene=None):
     template = _Template(
         title="camsim explorer: a camera design on a hyperspectral scene",
         # the two buttons one above the other: side by side, presentation mode's large text put one over the other
-        sidebar=[present, start_over, *controls],
+        sidebar=[present, present_class, start_over, *controls],
         main=[notice, body, alert],
         sidebar_width=330,
         favicon=FAVICON,

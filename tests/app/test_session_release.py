@@ -2,6 +2,8 @@
 and the state's watchers unlinked (``app.main._release``, run from ``on_session_destroyed``)."""
 
 
+import panel as pn
+
 from camsim_explorer.main import _release, create_app
 from camsim_core.scene import macbeth_scene, save_npz_scene
 
@@ -34,10 +36,13 @@ def test_a_released_session_is_freed_with_its_widgets():
     template = create_app()
     state, body = template.state, template.body
     mine = {id(o) for root in [body, *template.sidebar] for o in root.select()}
-    assert any(id(k) in mine for k in Callback.registry.keys())  # the sliders' links are registered
+    # the page makes no browser-side link of its own (test_app_state): one such as a widget may make
+    button = next(o for o in template.sidebar[0].select(pn.widgets.Toggle))
+    button.jscallback(value="void 0")
+    assert any(id(k) in mine for k in Callback.registry.keys())
     ref = weakref.ref(state)
     _release(state, body, template)
     assert not any(id(k) in mine for k in Callback.registry.keys())
-    del state, body, template
+    del state, body, template, button
     gc.collect()
     assert ref() is None
