@@ -21,8 +21,8 @@ import numpy as np
 import panel as pn
 import param
 from bokeh.events import RangesUpdate, SelectionGeometry, Tap
-from bokeh.models import (BoxSelectTool, ColumnDataSource, CustomJSHover, DataRange1d, HoverTool, Image,
-                          ImageRGBA, LinearColorMapper, Range1d, Span, TapTool)
+from bokeh.models import (BoxSelectTool, ColumnDataSource, CustomJSHover, CustomJSTickFormatter, DataRange1d,
+                          HoverTool, Image, ImageRGBA, LinearColorMapper, Range1d, Span, TapTool)
 from bokeh.palettes import Category10, Greys256, Inferno256
 from bokeh.plotting import figure
 from panel.models.markup import HTML as HTMLModel
@@ -1105,6 +1105,10 @@ class ResultsView:
         return io.BytesIO(buf.getvalue().encode())
 
 
+#: The wavelength slider's value shown as its band's wavelength in nm (the slider counts the scene's bands).
+_BAND_LABEL_JS = "const w = wavelengths[Math.round(tick)]; return w === undefined ? '' : String(Math.round(w * 10) / 10);"
+
+
 # -- the scene: one plane, sRGB, spectra of clicked pixels, metadata -------
 class SceneView(TabView):
     """The scene before the camera: sRGB and one plane side by side (sharing zoom), spectra of
@@ -1118,7 +1122,7 @@ class SceneView(TabView):
     >>> from camsim_explorer.state import ExplorerState
     >>> state = ExplorerState(scene="macbeth")
     >>> view = SceneView(state)
-    >>> view.wavelength.value = 600.0
+    >>> view.wavelength.value = 20  # the scene's 21st band
     >>> state.wavelength, view.plane_label.object.startswith("Radiance at 600 nm")
     (600.0, True)
     """
@@ -1189,8 +1193,13 @@ class SceneView(TabView):
         self.meta = pn.pane.Markdown("", css_classes=["camsim-scene-meta"], sizing_mode="stretch_width")
         self.clear = pn.widgets.Button(label="Clear spectra", css_classes=["w-clear-spectra"], width=120)
         self.clear.on_click(lambda e: self.reset_spectra())
-        self.wavelength = pn.widgets.DiscreteSlider(label="Wavelength (nm)", options=[550.0], value=550.0,
-                                                    css_classes=["w-wavelength"], width=280)
+        # the scene's bands by index, the title showing the band's wavelength (formatted in the browser): a
+        # DiscreteSlider links its label to its slider with a Panel link, and any Panel link makes Panel look
+        # for links over the whole page at every tab switch
+        self._wavelengths = [550.0]
+        self._band_label = CustomJSTickFormatter(code=_BAND_LABEL_JS, args={"wavelengths": self._wavelengths})
+        self.wavelength = pn.widgets.IntSlider(label="Wavelength (nm)", start=0, end=1, value=0,
+                                               format=self._band_label, css_classes=["w-wavelength"], width=280)
         self._scene = None
         super().__init__(state, when_shown, **params)
         self._layout = pn.Column(pn.Row(self.wavelength, self.clear),
@@ -1201,7 +1210,7 @@ class SceneView(TabView):
 
     @param.depends("wavelength.value", watch=True)
     def _wavelength_chosen(self):
-        self.state.wavelength = float(self.wavelength.value)
+        self.state.wavelength = self._wavelengths[min(self.wavelength.value, len(self._wavelengths) - 1)]
 
     @param.depends("state.scene", "state.wavelength", watch=True)
     def _on_change(self):
@@ -1218,11 +1227,13 @@ class SceneView(TabView):
         if scene is None:
             return
         wls = [float(w) for w in scene.wavelengths]
-        if self.wavelength.options != wls:
-            self.wavelength.options = wls
         k = int(np.argmin(np.abs(np.asarray(wls) - float(self.state.wavelength))))
-        if self.wavelength.value != wls[k]:
-            self.wavelength.value = wls[k]
+        if self._wavelengths != wls:
+            self._wavelengths = wls
+            self._band_label.args = {"wavelengths": wls}
+            self.wavelength.param.update(end=max(len(wls) - 1, 1), disabled=len(wls) < 2)
+        if self.wavelength.value != k:
+            self.wavelength.value = k
         h, w = scene.data.shape[:2]
         if scene is not self._scene:
             self._scene = scene

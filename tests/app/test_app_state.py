@@ -716,3 +716,25 @@ def test_sessions_share_a_chart_by_name_and_each_checks_it_against_the_limit():
     del a, b, shared
     gc.collect()
     assert state_module._SHARED_CHARTS.get(name) is None
+
+
+def test_a_page_makes_no_panel_callback():
+    """A Panel ``Callback`` (``jscallback``, ``jslink``) makes Panel install a hook that, every time part of a page
+    is rendered anew (each tab switch), selects every Panel object of the page and every Bokeh model of the part
+    to look for links: 16 % of the server's work at a tab switch. The page has none: presentation mode's class on
+    the body is set by a component (camsim_explorer.body_class)."""
+    import panel as pn
+    from panel.links import Callback
+
+    from camsim_explorer.main import _release, create_app
+
+    template = create_app()
+    try:
+        tabs = next(t for t in template.body.select(pn.Tabs))
+        for index in range(len(tabs)):  # every tab built (Panel's DiscreteSlider, the Scene tab's once, made one)
+            tabs.active = index
+        found = [o for root in [*template.main, *template.sidebar, *template.header] for o in root.select()]
+        assert len(found) > 150 and any("w-wavelength" in o.css_classes for o in found if hasattr(o, "css_classes"))
+        assert [type(o).__name__ for o in found if o in Callback.registry] == []
+    finally:
+        _release(template.state, template.body, template)

@@ -505,6 +505,22 @@ def _address_of(new):
     return check
 
 
+def test_the_wavelength_slider_names_its_band_in_nm_and_shows_that_plane(page):
+    # the slider counts the scene's bands; its title shows the band's wavelength, formatted in the browser
+    page.page.locator(".bk-tab").filter(has_text="Scene").first.click()
+    title = page.page.locator(".w-wavelength .bk-slider-title").first
+    wait_until(lambda: title.inner_text().replace("\xa0", " "), what="the slider's title",
+               until=lambda text: text.startswith("Wavelength (nm)") and text.rstrip().endswith(": 550"))
+    page.page.locator(".w-wavelength .noUi-handle").first.focus()
+    page.page.keyboard.press("ArrowRight")  # the next band, as a student's arrow key moves it
+    wait_until(lambda: title.inner_text(), what="the title naming the next band",
+               until=lambda text: text.rstrip().endswith(": 560"))
+    wait_until(lambda: pane_text(page, ".camsim-scene-plane-label"), what="the plane at 560 nm",
+               until=lambda text: text.startswith("Radiance at 560 nm"))
+    settled_shot(page, name="scene-wavelength")
+    assert page.errors() == []
+
+
 # Clicks the Scene tab from the page's first script on, as soon as its header is drawn (a student clicking while
 # the page is still being laid out), and records whether Bokeh's document was still loading at that moment.
 _CLICK_SCENE_AT_ONCE = """(() => {
