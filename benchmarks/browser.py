@@ -22,7 +22,9 @@ scene change, camera switch (to human cones, and to the electron-level
 phone-1.4um), chart pick (the slanted edge, fitted to the frame of the default
 camera, and of phone-1.4um: 1074 x 1432 samples through its diffraction
 optics); each row starts from the default design (the row before put back
-untimed); on the
+untimed); tab switches (Scene, Camera, Optics & sensor and Image quality, each and back to Results, nothing
+changed since the tab was last shown: from the click to the tab's own pane shown and the browser idle) and
+the Camera tab opened after a camera switch made on the Results tab (to its pane naming the new camera); on the
 Compare designs tab: pinning each of four cameras (to the design shown, and to
 its image-quality measures in the table), a sweep of the four over
 six noise values, and a link that restores the four pinned designs (from
@@ -64,7 +66,8 @@ GOALS = {"noise": 150, "exposure": 150, "render method": 150, "demosaic method":
          "scene change": None, "camera switch": 500, "camera: phone-1.4um": 500, "chart pick": 500,
          "chart pick: phone-1.4um": None,
          "pin": 1000, "pin, its quality measures in": None, "sweep 4 x 6": 10000, "link, 4 pinned": 3000,
-         "first render": 1500, "first, back to back": None}
+         "first render": 1500, "first, back to back": None, "tab switch": None,
+         "tab, after a camera switch": None}
 
 # JS: find an element through shadow roots (Panel renders panes inside them).
 _DEEP = """
@@ -246,6 +249,60 @@ _LINK_INIT = "(() => {" + _DEEP + _COMPARE_STATUS + """
     }, 10);
   });
 })();"""
+# A tab switch: click the tab and time, on the page's clock, until the tab's own pane (class ``marker``) is shown
+# (laid out and visible) holding the text ``want``, then the browser's next idle period (the tab's plots built
+# and drawn) and one animation frame. A 20 ms timer looks (a timer makes no frames).
+_TAB_ACT = "([title, marker, want]) => {" + _DEEP + """
+  const tab = camsimTab(title);
+  if (!tab) return {error: `no tab ${title} in the page`};
+  const shown = el => el && el.getClientRects().length > 0 &&
+    el.checkVisibility({visibilityProperty: true, opacityProperty: true, checkVisibilityCSS: true, checkOpacity: true});
+  return new Promise(resolve => {
+    const t0 = performance.now();
+    tab.click();
+    const timer = setInterval(() => {
+      const el = deep('.' + marker);
+      if (!(shown(el) && (el.shadowRoot || el).textContent.includes(want))) {
+        if (performance.now() - t0 > 120000) { clearInterval(timer); resolve({error: `${title}: ${marker} not shown`}); }
+        return;
+      }
+      clearInterval(timer);
+      requestIdleCallback(() => requestAnimationFrame(() => resolve({ms: performance.now() - t0})), {timeout: 10000});
+    }, 20);
+  });
+}"""
+#: The tabs a "tab switch" row opens in turn, each with its own pane: (title, CSS class of the pane).
+TAB_PANES = (("Scene", "camsim-scene-meta"), ("Results", "camsim-stats"), ("Camera", "camsim-camera-info"),
+             ("Results", "camsim-stats"), ("Optics & sensor", "camsim-physical-table"), ("Results", "camsim-stats"),
+             ("Image quality", "camsim-quality"), ("Results", "camsim-stats"))
+
+
+def time_tab(page, title, marker, want=""):
+    """ms from the click on the tab ``title`` to its pane ``marker`` shown holding ``want`` and drawn."""
+    done = page.evaluate(_TAB_ACT, [title, marker, want])
+    if "error" in done:
+        raise RuntimeError(done["error"])
+    return done["ms"]
+
+
+def tab_rows(page, repeats):
+    """Tab switches with nothing changed since the tab was last shown, and the Camera tab opened after a camera
+    switch made on the Results tab (it shows the new camera): (label, ms list) rows. Every tab is built once,
+    untimed, first (its first opening builds it)."""
+    for title, marker in TAB_PANES:
+        time_tab(page, title, marker)
+    switches = [time_tab(page, title, marker) for _ in range(repeats) for title, marker in TAB_PANES]
+    after = []
+    for i in range(repeats):
+        camera = ("human-cones", "kodak-dcs200-ir")[i % 2]
+        time_action(page, "camera", "w-camera", "select", camera)
+        after.append(time_tab(page, "Camera", "camsim-camera-info", camera))
+        time_tab(page, "Results", "camsim-stats")
+    if repeats % 2:
+        time_action(page, "camera", "w-camera", "select", DEFAULTS["camera"])
+    return [("tab switch", switches), ("tab, after a camera switch", after)]
+
+
 #: The cameras pinned in turn (each the live design when pinned), then swept together.
 PIN_CAMERAS = ("human-cones", "cie1931", "stockman-sharpe", "kodak-dcs200")
 SWEEP_VALUES = ("0, 1, 2, 3, 4, 5", "0.5, 1.5, 2.5, 3.5, 4.5, 5.5")
@@ -401,6 +458,8 @@ def run(url, repeats, driver="cdp"):
                 time_action(page, key, css, kind, values[1])
             for s_key, s_css, s_kind, _ in setup:
                 time_action(page, s_key, s_css, s_kind, DEFAULTS[s_key])
+        for label, times in tab_rows(page, repeats):
+            rows.append((label, times, [0.0]))
         # the Compare rows pin, sweep and link on the slanted edge fitted to each camera (picked here, untimed)
         time_action(page, "scene", "w-scene", "select", "slanted-edge")
         for label, times in compare_rows(browser, page, repeats):
