@@ -477,14 +477,15 @@ def report(rows, repeats, driver="cdp"):
            "playwright": "driven by Playwright (its Network instrumentation on)"}[driver]
     print(f"explorer in Chromium at 1366 x 768 ({how}), default scene; {repeats} repetitions per action; "
           f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} cores")
-    print(f"{'action':<24} {'median ms':>9} {'max ms':>8} {'engine ms':>9} {'goal ms':>8} {'median/goal':>11} "
+    width = max(len("action"), *(len(row[0]) for row in rows))
+    print(f"{'action':<{width}} {'median ms':>9} {'max ms':>8} {'engine ms':>9} {'goal ms':>8} {'median/goal':>11} "
           f"{'spare pages':>11}")
-    print("-" * 86)
+    print("-" * (width + 62))
     for label, times, engines, *spares in rows:
         med, mx = statistics.median(times), max(times)
         goal = GOALS.get(label)
         ratio = f"{med / goal:.2f}" if goal else "-"
-        print(f"{label:<24} {med:9.0f} {mx:8.0f} {statistics.median(engines):9.1f} {goal or '-':>8} {ratio:>11} "
+        print(f"{label:<{width}} {med:9.0f} {mx:8.0f} {statistics.median(engines):9.1f} {goal or '-':>8} {ratio:>11} "
               f"{spares[0] if spares else '-':>11}")
     print(f"first render: pages opened {FIRST_PAUSE_S:.0f} s apart; back to back: one after another. "
           "spare pages: how many were served from a page the server built in advance (Server-Timing header).")
