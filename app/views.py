@@ -35,6 +35,7 @@ from camsim_core.screen import block_size, to_screen
 from camsim_core.simulation import tile_index_map
 
 from . import state as state_module
+from .compat import hooks as _compat
 from .safe_text import html_text, md_text
 from .shown import now
 from .state import exposure_warnings, mean_level
@@ -163,12 +164,13 @@ def when_page_ready(fn):
     pull to carry them, but the pull has already gone), so a result shown in
     that window would never reach the screen. Before the browser has
     connected, also at once: its pull will carry the changes. Outside a
-    server: at once. (``compat.hooks.connected_at_pull`` closes that window
-    for every change, a click's included; this wait stays for a Panel on
-    which that hook does not apply.)
+    server: at once. With ``compat.hooks.connected_at_pull`` in place, which
+    closes that window for every change, always at once: waiting then only
+    delayed a link's first result until the page had drawn, and a page whose
+    pull waited for that result (``compat.spare_session``) waited its 10 s.
     """
     doc = pn.state.curdoc
-    if doc is None or doc.session_context is None or pn.state.loaded:
+    if doc is None or doc.session_context is None or pn.state.loaded or _compat.pages_get_every_change():
         fn()
         return
     session = getattr(doc.session_context, "session", None)

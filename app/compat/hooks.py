@@ -15,7 +15,7 @@ from __future__ import annotations
 import logging
 
 __all__ = ["served_without_cdn", "pages_without_mathjax", "link_values_kept_as_text", "forget_js_links", "flush_stranded_writes",
-           "connected_at_pull",
+           "connected_at_pull", "pages_get_every_change",
            "undelay", "DataURIFavicon", "address_writer", "tornado_app", "HOOKS"]
 
 _log = logging.getLogger("camsim.explorer")
@@ -188,6 +188,16 @@ def connected_at_pull():
     pull_then_connected.original = bokehs
     ServerSession.pull = classmethod(pull_then_connected)
     return True
+
+
+def pages_get_every_change():
+    """True when :func:`connected_at_pull` is in place: a change made in a session then reaches its page
+    whenever it is made (before the page's pull, in the pull; after it, as a patch), and nothing needs to wait
+    for the page's "document ready" report."""
+    from bokeh.server.session import ServerSession
+
+    pull = ServerSession.__dict__.get("pull")
+    return isinstance(pull, classmethod) and getattr(pull.__func__, "camsim", False)
 
 
 def undelay(widget):
