@@ -15,7 +15,8 @@ checks the source of every other module). What is here, and why:
 * :mod:`.hooks` - no MathJax bundle (1.8 MB per first visit), link values
   Panel cannot parse kept as text (an HTTP 500 before), browser-side links
   of closed sessions dropped (a leak), changes Panel queued and forgot sent
-  (lost updates), changes made while a page finishes loading sent (Panel dropped them), no 50 ms debounce, the address written once a result is
+  (lost updates), changes made while a page finishes loading sent (Panel
+  dropped them), no 50 ms debounce, the address written once a result is
   shown, a data-URI page icon, the Tornado application for the Host check, and (for
   ``camsim serve`` only) every page's files from this server, never Panel's CDN.
 
