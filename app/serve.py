@@ -347,6 +347,12 @@ def run(args):
     _log_to_stderr()
     _quiet_closed_page_writes()
     serve_resources_locally()
+    import asyncio
+
+    from .loop_watch import watched_event_loop
+
+    # the loop the server runs on, made before Tornado asks for one: its turns are timed (watch_event_loop)
+    asyncio.set_event_loop(watched_event_loop())
     libc = _return_freed_memory_to_the_system()
     import panel as pn
 

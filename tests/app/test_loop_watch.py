@@ -1,16 +1,25 @@
-"""The event-loop watch logs a stall (how late its tick ran) with its length."""
+"""The event-loop watch logs a stall (a turn of the loop longer than the threshold) with its length."""
 
 import asyncio
 import logging
 import time
 
-from camsim_explorer.loop_watch import STALLS, watch_event_loop
+from camsim_explorer.loop_watch import STALLS, watch_event_loop, watched_event_loop
 
 
 def _hold_the_loop(seconds):
     end = time.monotonic() + seconds
     while time.monotonic() < end:  # busy, as a computation is (a sleep would show as time.sleep)
         pass
+
+
+def _run(coroutine):
+    """Run ``coroutine`` to its end on a new loop the watch can watch (as ``asyncio.run`` would on its own)."""
+    loop = watched_event_loop()
+    try:
+        return loop.run_until_complete(coroutine)
+    finally:
+        loop.close()
 
 
 def test_a_blocked_loop_is_logged_and_a_free_one_is_not(caplog):
@@ -26,7 +35,7 @@ def test_a_blocked_loop_is_logged_and_a_free_one_is_not(caplog):
 
     before = STALLS["count"]
     with caplog.at_level(logging.WARNING, logger="camsim.serve"):
-        quiet = asyncio.run(main())
+        quiet = _run(main())
     assert STALLS["count"] >= quiet + 1
     assert 150 <= STALLS["longest_ms"] < 5000
     lines = [r.getMessage() for r in caplog.records if "event loop blocked" in r.getMessage()]
@@ -65,7 +74,7 @@ def test_the_watch_leaves_the_signal_as_it_found_it():
         stop()
         return during
 
-    assert asyncio.run(main()) not in (signal.SIG_DFL, None)
+    assert _run(main()) not in (signal.SIG_DFL, None)
     assert signal.getsignal(SAMPLE_SIGNAL) == signal.SIG_DFL
 
 
@@ -96,7 +105,43 @@ def test_a_signal_arriving_while_a_stall_is_counted_neither_breaks_nor_ends_the_
         stop()
 
     with caplog.at_level(logging.WARNING):
-        asyncio.run(main())
+        _run(main())
     messages = [r.getMessage() for r in caplog.records]
     assert not [m for m in messages if "Exception in callback" in m], messages
     assert len([m for m in messages if "in _hold_the_loop" in m]) >= 2, messages
+
+
+def test_a_stall_is_measured_whole_and_a_waiting_loop_is_left_asleep(caplog):
+    """The turn's own length, read from the clock: a tick every 20 ms, looked at for how late it ran, read a
+    130 ms stall as 110-130 ms, and woke the waiting loop and the watch's thread 100 times a second."""
+    import camsim_explorer.loop_watch as loop_watch
+
+    async def main():
+        loop = asyncio.get_running_loop()
+        stop = watch_event_loop(loop, threshold_ms=100)
+        turns = loop_watch._SELECTORS[loop].turns
+        await asyncio.sleep(0.05)
+        first = turns.turn
+        await asyncio.sleep(0.5)  # nothing to do but wait
+        idle_turns = turns.turn - first
+        asleep = turns.looker_asleep
+        _hold_the_loop(0.13)
+        await asyncio.sleep(0.05)
+        stop()
+        return idle_turns, asleep
+
+    with caplog.at_level(logging.WARNING, logger="camsim.serve"):
+        idle_turns, asleep = _run(main())
+    assert idle_turns <= 3 and asleep, (idle_turns, asleep)
+    blocked = [float(r.getMessage().split()[3]) for r in caplog.records if "event loop blocked" in r.getMessage()]
+    assert len(blocked) == 1 and 130 <= blocked[0] < 1000, blocked
+
+
+def test_a_loop_the_watch_cannot_time_is_refused():
+    import pytest
+
+    async def main():
+        return watch_event_loop(asyncio.get_running_loop())
+
+    with pytest.raises(ValueError, match="watched_event_loop"):
+        asyncio.run(main())
