@@ -633,7 +633,9 @@ def create_app(scene=None):
     """One session's page (a fresh state: nothing is shared between sessions but read-only data)."""
     compat.apply()
     _quiet_known_warnings()
-    pn.extension(notifications=False, raw_css=[_PRESENT_CSS])
+    # global_css: in the page's head only (raw_css also goes into every view's shadow root, where rules from the
+    # body match nothing: 99 copies parsed and matched in a page)
+    pn.extension(notifications=False, global_css=[_PRESENT_CSS])
     state = _new_state(scene)
     first_scene = state.scene  # before a link's parameters: the scene a page of this server opens with (Start over)
     with _LIVE_LOCK:
