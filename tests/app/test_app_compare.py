@@ -429,6 +429,12 @@ def test_designs_computed_for_a_page_being_built_start_once_its_session_is_live(
     import threading
     import types
 
+    import camsim_explorer.compare as module
+
+    # shared designs of this test's own: a design another test's page still held (until the garbage collector
+    # came) was shown at once, with nothing to compute
+    monkeypatch.setattr(module, "SHARED_DESIGNS", module.SharedDesigns())
+
     class Doc:
         def __init__(self, session):
             self.session_context = types.SimpleNamespace(session=session)
@@ -496,10 +502,15 @@ def test_a_pinned_design_is_shown_before_its_image_quality_measures_which_follow
 
 
 
-def test_pinning_the_live_design_keeps_every_design_in_its_place():
+def test_pinning_the_live_design_keeps_every_design_in_its_place(monkeypatch):
     """The live design was shown first, so each pin shifted every design by one slot and the tab sent every
     design's two images again (8 images, ~9 MB, at the fourth pin of a frame-sized chart). A design keeps its
     slot, the live design pinned stays where it was, and the tab's order (table, status) is the slots' order."""
+    import camsim_explorer.compare as module
+
+    # shared designs of this test's own: the same design held by another test's page (until the garbage
+    # collector came) was shown in place of the live design's own images
+    monkeypatch.setattr(module, "SHARED_DESIGNS", module.SharedDesigns())
     state = ExplorerState()
     view = CompareView(state)
     view.pin("DCS-200")
