@@ -596,8 +596,11 @@ class CompareView:
         self._built = True
         plots, self._prebuilt = self._prebuilt, None
         self.__dict__.update(plots or self._make_plots(1.0 if aspect is None else aspect))
+        # the design slots join the page as designs first take them (:meth:`_place_slots`): a hidden slot's two
+        # figures are still built, laid out and drawn by the browser (8 of the tab's 14 at the first pin)
+        self.slot_row = pn.Row(styles=_WRAP)
         # rows that wrap: five designs, or a histogram beside a wide table, do not fit a 1366 px window's width
-        self.views[:] = [pn.Row(*self.slots, styles=_WRAP), pn.Row(self.hist_pane, self.table, styles=_WRAP),
+        self.views[:] = [self.slot_row, pn.Row(self.hist_pane, self.table, styles=_WRAP),
                          pn.pane.Markdown("### A/B difference"), pn.Row(self.a_select, self.b_select), self.ab_text,
                          pn.Row(*(v.pane for v in self.ab_views), styles=_WRAP)]
         self.sweep_area[:] = [self.sweep_pane]
@@ -1026,6 +1029,7 @@ class CompareView:
                     self._shown[j] = None
                 if self.slots[j].visible != (i < len(results)):
                     self.slots[j].visible = i < len(results)
+            self._place_slots(order[:len(results)])
             self.histogram.show([(r.name, self._prepared("hist", self._de_map(r, metric))) for r in results], metric,
                                 self.colours(results))
         self._forget_display(results, metric)
@@ -1045,6 +1049,13 @@ class CompareView:
                 self._ab_chosen = (self.a_select.value, self.b_select.value)
         self.update_ab(results)
         self._status(results, top)
+
+    def _place_slots(self, used):
+        """Put on the page the design slots up to the last of ``used`` (slot indices showing a design), in their
+        order; a slot once placed stays (hidden when free), so a design never moves to another slot's place."""
+        count = max(used, default=-1) + 1
+        if count > len(self.slot_row.objects):
+            self.slot_row.objects = list(self.slots[:count])
 
     def _table(self, results):
         if not results:

@@ -551,3 +551,24 @@ def test_the_first_a_b_pair_is_of_one_geometry_when_there_is_one():
     state.noise_sigma = 1.0
     assert (view.a_select.value, view.b_select.value) == ("dcs", "imx")
     assert "not available" in view.ab_text.object
+
+
+def test_a_design_slot_joins_the_page_when_a_design_first_takes_it(monkeypatch):
+    """The tab's five design slots were all on the page from the first pin, the free ones hidden: the browser
+    built, laid out and drew their figures all the same (8 of the tab's 14 figures at the first pin). A slot
+    joins the page when a design first takes it, and stays (hidden when free) so that no design moves."""
+    import camsim_explorer.compare as module
+
+    monkeypatch.setattr(module, "SHARED_DESIGNS", module.SharedDesigns())
+    state = ExplorerState()
+    view = CompareView(state)
+    view.pin("DCS-200")  # the live design, pinned: one design, one slot
+    assert view.slot_row.objects == view.slots[:1]
+    state.camera = "human-cones"  # a live design beside it: a second slot
+    assert view.slot_row.objects == view.slots[:2] and [s.visible for s in view.slots[:2]] == [True, True]
+    view.pin("cones")
+    state.noise_sigma = 2.0
+    assert view.slot_row.objects == view.slots[:3]
+    view.unpin("DCS-200")
+    assert view.slot_row.objects == view.slots[:3]  # the freed slot stays on the page, hidden
+    assert [s.visible for s in view.slots[:3]] == [False, True, True]
