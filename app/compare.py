@@ -599,10 +599,11 @@ class CompareView:
         # the design slots join the page as designs first take them (:meth:`_place_slots`): a hidden slot's two
         # figures are still built, laid out and drawn by the browser (8 of the tab's 14 at the first pin)
         self.slot_row = pn.Row(styles=_WRAP)
+        self.ab_row = pn.Row(styles=_WRAP)  # the A/B difference's two views, on the page with the first difference
         # rows that wrap: five designs, or a histogram beside a wide table, do not fit a 1366 px window's width
         self.views[:] = [self.slot_row, pn.Row(self.hist_pane, self.table, styles=_WRAP),
                          pn.pane.Markdown("### A/B difference"), pn.Row(self.a_select, self.b_select), self.ab_text,
-                         pn.Row(*(v.pane for v in self.ab_views), styles=_WRAP)]
+                         self.ab_row]
 
     def _prebuild(self, aspect):
         """Make the plots ahead, in a worker thread, for :meth:`_ensure_plots` to show: the Bokeh models of a
@@ -1121,6 +1122,8 @@ class CompareView:
         ab, de, wins, top, aspect = outcome
         self.ab = (a.name, b.name, ab)
         with pn.io.hold(self._server_doc()):  # after the plots, if this update made them
+            if not self.ab_row.objects:  # before the first difference they were empty frames
+                self.ab_row[:] = [v.pane for v in self.ab_views]
             self._fit_view(self.ab_views[0], aspect)
             self.ab_views[1].fit(aspect)
             if self.ab_mapper.high != top:

@@ -566,8 +566,10 @@ def test_a_design_slot_joins_the_page_when_a_design_first_takes_it(monkeypatch):
     view = CompareView(state)
     view.pin("DCS-200")  # the live design, pinned: one design, one slot
     assert view.slot_row.objects == view.slots[:1]
+    assert view.ab_row.objects == []  # one design: no A/B difference, no empty frames for it
     state.camera = "human-cones"  # a live design beside it: a second slot
     assert view.slot_row.objects == view.slots[:2] and [s.visible for s in view.slots[:2]] == [True, True]
+    assert view.ab_row.objects == [v.pane for v in view.ab_views]  # two designs: their difference, shown
     view.pin("cones")
     state.noise_sigma = 2.0
     assert view.slot_row.objects == view.slots[:3]
