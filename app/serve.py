@@ -306,14 +306,23 @@ def closed_page_exception_handler(loop, context):
     loop.default_exception_handler(context)
 
 
-def _quiet_closed_page_writes():
-    """Install :func:`closed_page_exception_handler` on the server's event loop once it runs."""
-    import asyncio
+def serving_loop():
+    """The event loop ``camsim serve`` runs on, made before anything asks Tornado for one: its turns are timed
+    (:func:`~camsim_explorer.loop_watch.watched_event_loop`) and a write to a closed page is one log line
+    (:func:`closed_page_exception_handler`). Set as the current loop by :func:`run`.
 
-    from tornado.ioloop import IOLoop
+    Examples
+    --------
+    >>> loop = serving_loop()
+    >>> loop.get_exception_handler() is closed_page_exception_handler
+    True
+    >>> loop.close()
+    """
+    from .loop_watch import watched_event_loop
 
-    IOLoop.current().add_callback(lambda: asyncio.get_running_loop().set_exception_handler(
-        closed_page_exception_handler))
+    loop = watched_event_loop()
+    loop.set_exception_handler(closed_page_exception_handler)
+    return loop
 
 
 def serve_resources_locally():
@@ -344,15 +353,13 @@ def run(args):
     if args.scene:
         scene = load_scene(args.scene)  # validate now: a clear error, not a broken page
         scene = args.scene if str(args.scene).lower() == scene.name else scene
-    _log_to_stderr()
-    _quiet_closed_page_writes()
-    serve_resources_locally()
     import asyncio
 
-    from .loop_watch import watched_event_loop
-
-    # the loop the server runs on, made before Tornado asks for one: its turns are timed (watch_event_loop)
-    asyncio.set_event_loop(watched_event_loop())
+    # the loop the server runs on, before anything asks Tornado for one (a handler installed through
+    # IOLoop.current() before this went to a loop that never ran: closed pages' writes logged tracebacks)
+    asyncio.set_event_loop(serving_loop())
+    _log_to_stderr()
+    serve_resources_locally()
     libc = _return_freed_memory_to_the_system()
     import panel as pn
 

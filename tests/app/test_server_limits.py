@@ -162,3 +162,20 @@ def test_a_write_to_a_closed_page_is_one_log_line_and_other_errors_reach_asyncio
     closed_page_exception_handler(loop, other)
     closed_page_exception_handler(loop, {"message": "no exception at all"})
     assert loop.passed_on == [other, {"message": "no exception at all"}]
+
+
+def test_the_server_logs_a_write_to_a_closed_page_in_one_line():
+    """The handler above, on the loop the server runs: installed through Tornado's current loop before the server
+    made its own, it went to a loop that never ran, and a tab closed mid-update put a traceback in the log."""
+    from pathlib import Path
+
+    from app_helpers import ARTIFACTS, explorer_server, server_log, wait_until
+
+    ARTIFACTS.mkdir(exist_ok=True)
+    launcher = Path(__file__).resolve().parents[1] / "serve_closed_page_write.py"
+    with explorer_server(launcher=launcher, extra_args=["--no-spare-page", "--no-upload"]) as url:
+        log = wait_until(lambda: (text := server_log(url)) and ("closed page was dropped" in text
+                                                                 or "never retrieved" in text) and text,
+                         what="the server's log says what became of the write to a closed page")
+    assert "a message to a closed page was dropped" in log, log[-2000:]
+    assert "Traceback" not in log and "never retrieved" not in log, log[-2000:]

@@ -1,0 +1,41 @@
+"""``camsim serve`` that, once it serves, writes to a page's websocket after the page has closed: a task whose
+exception (Tornado's ``WebSocketClosedError``) nobody retrieves, as a tab closed mid-update leaves. The server's
+log must say so in one line, with no traceback. Usage is that of ``python -m camsim_core.cli``.
+"""
+
+import asyncio
+import gc
+import sys
+
+import camsim_explorer.serve as serve
+from camsim_core.cli import main
+
+_log_to_stderr = serve._log_to_stderr
+
+
+async def _write_to_a_closed_page():
+    from tornado.websocket import WebSocketClosedError
+
+    raise WebSocketClosedError()
+
+
+def _unretrieved():
+    task = asyncio.ensure_future(_write_to_a_closed_page())
+
+    def drop():  # nobody retrieved its exception: asyncio reports it when the task goes
+        nonlocal task
+        task = None
+        gc.collect()
+
+    asyncio.get_running_loop().call_later(0.2, drop)
+
+
+def _and_write_once_serving():
+    _log_to_stderr()
+    asyncio.get_event_loop().call_later(1.0, _unretrieved)  # the loop the server will run, once it runs
+
+
+serve._log_to_stderr = _and_write_once_serving
+
+if __name__ == "__main__":
+    sys.exit(main())
