@@ -475,7 +475,7 @@ IMAGE_VIEWS = ("raw", "demosaiced", "rendered", "ideal", "de")
 # JS: ranges and data extent of each named image figure
 FIGURES_JS = """() => {
   const out = {};
-  for (const m of new Set(Bokeh.documents[0].roots().flatMap(r => [...r.references()]))) {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
     if (m.name && m.name.startsWith('camsim-') && m.name.endsWith('-figure') && m.x_range) {
       const r = m.renderers.find(g => g.data_source && g.data_source.data.dw);
       const d = r ? r.data_source.data : null;
@@ -557,7 +557,7 @@ def busy_label(page):
 
 #: JS: the labels of the Scene tab's spectra (clicked pixels, regions), or null before the tab is built.
 SPECTRA_JS = """() => {
-  for (const m of new Set(Bokeh.documents[0].roots().flatMap(r => [...r.references()]))) {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
     if (m.constructor && m.constructor.__name__ === 'ColumnDataSource' && 'xs' in m.data && 'label' in m.data)
       return Array.from(m.data.label);
   }

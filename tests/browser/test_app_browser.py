@@ -136,7 +136,7 @@ def test_distance_there_and_back_leaves_every_view_showing_the_whole_image(page)
 
 
 def test_histogram_and_de_scale_follow_the_data(page):
-    js = """() => { const out = {}; for (const m of new Set(Bokeh.documents[0].roots().flatMap(r => [...r.references()]))) {
+    js = """() => { const out = {}; for (const m of Bokeh.documents[0]._all_models.values()) {
         if (m.type === 'LinearColorMapper' || (m.constructor && m.constructor.__name__ === 'LinearColorMapper'))
           out[m.id] = m.high; } return out; }"""
     s = page.status()
@@ -151,7 +151,7 @@ def test_histogram_and_de_scale_follow_the_data(page):
     page.page.locator(".w-de-scale button", has_text="data").first.click()
     page.type_number("w-noise", 8)
     page.wait_for(lambda st: st["params"]["noise_sigma"] == 8 and not st["computing"])
-    bar = wait_until(lambda: page.page.evaluate("""() => { for (const m of new Set(Bokeh.documents[0].roots().flatMap(r => [...r.references()]))) {
+    bar = wait_until(lambda: page.page.evaluate("""() => { for (const m of Bokeh.documents[0]._all_models.values()) {
         if (m.name === 'camsim-de-colorbar') return [m.x_range.end, m.renderers[0].glyph.color_mapper.high]; } }"""),
                      30, "the colour bar shows the widened scale, its axis ending where the colours end",
                      until=lambda bar: bar[1] > 25 and bar[0] == pytest.approx(bar[1]))

@@ -46,7 +46,7 @@ def engine():
 
 _FIGURES = """() => {
   const out = {};
-  for (const m of new Set(Bokeh.documents[0].roots().flatMap(r => [...r.references()]))) {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
     if (m.constructor && m.constructor.__name__ === 'Figure' && m.title && m.title.text) {
       const legends = m.center.filter(c => c.constructor.__name__ === 'Legend');
       const labels = legends.flatMap(l => l.items.map(i => i.label && (i.label.value || i.label.field)));
@@ -172,7 +172,7 @@ def test_sweep_of_noise_gives_one_curve_per_design_with_the_engines_points(compa
 
 
 _POINT_ON_SCREEN = """([title, x, y]) => {
-  for (const m of new Set(Bokeh.documents[0].roots().flatMap(r => [...r.references()]))) {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
     if (m.constructor && m.constructor.__name__ === 'Figure' && m.title && m.title.text.startsWith(title)) {
       const view = Bokeh.index.find_one(m);  // a replaced plot may linger in the document without a view
       if (!view) continue;

@@ -14,7 +14,7 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 # the MTF curves' colours, as the browser draws them (Bokeh's models in the page)
 _MTF_LINES = """() => {
   const out = {};
-  for (const m of new Set(Bokeh.documents[0].roots().flatMap(r => [...r.references()]))) {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
     if (m.constructor && m.constructor.__name__ === 'Legend') {
       for (const item of m.items) {
         const label = item.label && (item.label.value || item.label.field);
@@ -65,7 +65,7 @@ def test_image_quality_tab_opened_before_the_chart_follows_it(browser, server):
 
 # the scene tab's radiance plane: its colour mapper's colours at its low and high ends, as the browser has them
 _PLANE_MAPPER = """() => {
-  for (const m of new Set(Bokeh.documents[0].roots().flatMap(r => [...r.references()]))) {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
     if (m.constructor && m.constructor.__name__ === 'Figure' && m.name === 'camsim-scene-plane-figure') {
       for (const r of m.renderers) {
         if (r.glyph && r.glyph.constructor.__name__ === 'Image') {
@@ -340,7 +340,7 @@ def test_a_refusal_is_in_sight_wherever_the_page_is_scrolled_and_typed_text_is_n
 # each figure's legend: label -> line colour (Bokeh's models in the page), by figure title
 _LEGEND_COLOURS = """() => {
   const out = {};
-  for (const m of new Set(Bokeh.documents[0].roots().flatMap(r => [...r.references()]))) {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
     if (!(m.constructor && m.constructor.__name__ === 'Figure' && m.title && m.title.text)) continue;
     const entry = out[m.title.text] = {};
     for (const legend of m.center.filter(c => c.constructor.__name__ === 'Legend')) {

@@ -214,7 +214,7 @@ def test_a_change_during_a_long_computation_ends_with_the_last_change(page):
 
 
 RAW_SOURCE_JS = """() => {
-  for (const m of new Set(Bokeh.documents[0].roots().flatMap(r => [...r.references()]))) {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
     if (m.name === 'camsim-raw-figure') {
       const d = m.renderers.find(g => g.data_source && g.data_source.data.dw).data_source.data;
       const img = d.image[0];

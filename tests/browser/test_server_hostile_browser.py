@@ -17,7 +17,7 @@ MiB = 2**20
 #: Page script: set every upload limit the scene upload's model has (``max_bytes`` was one) to 1 TiB.
 RAISE_THE_CAP_JS = """() => {
   const raised = [];
-  for (const m of new Set(Bokeh.documents[0].roots().flatMap(r => [...r.references()]))) {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
     if (m.class_name === 'BoundedUpload' && (m.css_classes || []).includes('w-upload')) {
       for (const k of ['max_bytes', 'browser_max_bytes']) {
         if (m.data[k] !== undefined) { m.data[k] = 2 ** 40; raised.push(k); }
@@ -40,7 +40,7 @@ CLAIM_ONE_BYTE_JS = """() => {
 
 #: Page script: set the address's query the way the browser's back button does (Panel's Location model).
 SET_SEARCH_JS = """(search) => {
-  for (const m of new Set(Bokeh.documents[0].roots().flatMap(r => [...r.references()]))) {
+  for (const m of Bokeh.documents[0]._all_models.values()) {
     if (m.search !== undefined && m.pathname !== undefined && m.hash !== undefined) { m.search = search; return true; }
   }
   return false;
