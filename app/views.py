@@ -1256,8 +1256,11 @@ class SceneView(TabView):
         top = float(np.percentile(plane, 99.5)) or float(plane.max()) or 1.0
         self.plane_bar.set(0.0, top)
         self.plane_source.data = dict(image=[np.ascontiguousarray(plane[::-1])], x=[0], y=[0], dw=[w], dh=[h])
-        self.plane_label.object = (f"Radiance at {wls[k]:g} nm ({self.UNIT}; grey scale from 0 to this plane's "
-                                   f"99.5th percentile, {top:.3g})")
+        # short enough for one line beside the sRGB view at 1366 px (the scale's top came last and was cut off);
+        # the whole sentence on hover, the unit on the colour bar's axis
+        self.plane_label.object = (f"<span title='Radiance at {wls[k]:g} nm ({self.UNIT}): the grey scale runs from 0 "
+                                   f"to this plane&#39;s 99.5th percentile, {top:.3g}'>Radiance at {wls[k]:g} nm, "
+                                   f"grey 0 to {top:.3g} (99.5th pct)</span>")
         self.wl_span.location = wls[k]
 
     # clicks and boxes, in scene pixels (x right, y up from the bottom edge)
