@@ -1125,7 +1125,7 @@ class SceneView(TabView):
     >>> state = ExplorerState(scene="macbeth")
     >>> view = SceneView(state)
     >>> view.wavelength.value = 20  # the scene's 21st band
-    >>> state.wavelength, view.plane_label.object.startswith("Radiance at 600 nm")
+    >>> state.wavelength, ">Radiance at 600 nm, grey 0 to " in view.plane_label.object
     (600.0, True)
     """
 
