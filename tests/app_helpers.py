@@ -555,6 +555,26 @@ def busy_label(page):
     return found[0] if found else None
 
 
+#: JS: the explorer's one-line labels (``.camsim-label``) whose text is cut off (wider than their box)
+LABELS_CUT_JS = """() => {
+  const cut = []; let labels = 0;
+  const walk = (root) => {
+    for (const el of root.querySelectorAll('*')) {
+      if (el.classList && el.classList.contains('camsim-label') && el.shadowRoot) {
+        for (const d of el.shadowRoot.querySelectorAll('div')) {
+          if (getComputedStyle(d).whiteSpace !== 'nowrap' || !d.textContent.trim() || !d.getClientRects().length) continue;
+          labels++;
+          if (d.scrollWidth > d.clientWidth + 1) cut.push(d.textContent.trim());
+        }
+      }
+      if (el.shadowRoot) walk(el.shadowRoot);
+    }
+  };
+  walk(document);
+  return {labels, cut};
+}"""
+
+
 #: JS: the labels of the Scene tab's spectra (clicked pixels, regions), or null before the tab is built.
 SPECTRA_JS = """() => {
   for (const m of Bokeh.documents[0]._all_models.values()) {

@@ -10,7 +10,7 @@ import sys
 import camsim_explorer.serve as serve
 from camsim_core.cli import main
 
-_log_to_stderr = serve._log_to_stderr
+_serving_loop = serve.serving_loop
 
 
 async def _write_to_a_closed_page():
@@ -30,12 +30,13 @@ def _unretrieved():
     asyncio.get_running_loop().call_later(0.2, drop)
 
 
-def _and_write_once_serving():
-    _log_to_stderr()
-    asyncio.get_event_loop().call_later(1.0, _unretrieved)  # the loop the server will run, once it runs
+def _writing_once_serving():
+    loop = _serving_loop()
+    loop.call_later(1.0, _unretrieved)  # on the loop the server runs, once it runs
+    return loop
 
 
-serve._log_to_stderr = _and_write_once_serving
+serve.serving_loop = _writing_once_serving
 
 if __name__ == "__main__":
     sys.exit(main())

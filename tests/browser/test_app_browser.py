@@ -10,7 +10,7 @@ import pytest
 
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
-from app_helpers import (FIGURES_JS, IMAGE_VIEWS, POLL, SPECTRA_JS, TIMEOUT, Page, active_tab, background_share,
+from app_helpers import (FIGURES_JS, IMAGE_VIEWS, LABELS_CUT_JS, POLL, SPECTRA_JS, TIMEOUT, Page, active_tab, background_share,
                          eventually, figures, new_page, pane_text, settled_shot, shot_until, shot_until_changed,
                          shows_whole_image, stable_boxes, wait_compare, wait_until)
 
@@ -517,27 +517,16 @@ def test_the_wavelength_slider_names_its_band_in_nm_and_shows_that_plane(page):
                until=lambda text: text.rstrip().endswith(": 560"))
     wait_until(lambda: pane_text(page, ".camsim-scene-plane-label"), what="the plane at 560 nm",
                until=lambda text: text.startswith("Radiance at 560 nm"))
-    # the label says the grey scale's top whole, on one line (it ran on past the view and was cut there), here
-    # and in a 1366 px window
+    # the tab's one-line labels whole, the plane's with the grey scale's top (it ran on past the view and was cut
+    # there), here and in a 1366 px window
     for width in (page.viewport["width"], 1366):
         page.page.set_viewport_size({"width": width, "height": page.viewport["height"]})
-        wait_until(lambda: page.page.evaluate(_LABEL_OVERFLOW, "camsim-scene-plane-label"),
-                   what=f"the plane's label laid out whole at {width} px", until=lambda px: px is not None and px <= 1)
+        wait_until(lambda: page.page.evaluate(LABELS_CUT_JS), what=f"the Scene tab's labels whole at {width} px",
+                   until=lambda t: t["labels"] >= 2 and not t["cut"])
     settled_shot(page, name="scene-wavelength")
     assert page.errors() == []
 
 
-#: JS: how many px the text of the one-line label of class ``arg`` runs past its box (null before it is laid out).
-_LABEL_OVERFLOW = """(css) => {
-  const walk = (root) => { for (const el of root.querySelectorAll('*')) {
-    if (el.classList && el.classList.contains(css) && el.shadowRoot) {
-      const d = el.shadowRoot.querySelector('div');
-      return d && d.clientWidth > 0 ? d.scrollWidth - d.clientWidth : null;
-    }
-    if (el.shadowRoot) { const r = walk(el.shadowRoot); if (r !== undefined) return r; } } };
-  const found = walk(document);
-  return found === undefined ? null : found;
-}"""
 
 
 # Clicks the Scene tab from the page's first script on, as soon as its header is drawn (a student clicking while

@@ -6,7 +6,7 @@ import re
 
 import pytest
 
-from app_helpers import (SPECTRA_JS, Page, cut_titles, eventually, inner_texts, pane_text, server_log, settled_shot,
+from app_helpers import (LABELS_CUT_JS, SPECTRA_JS, Page, cut_titles, eventually, inner_texts, pane_text, server_log, settled_shot,
                          shown_titles, stable_boxes, wait_compare, wait_until)
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -200,24 +200,6 @@ _SHOWN_PLOT_TEXT_SIZES = """() => {
   for (const root of Bokeh.index.roots) walk(root);
   return out;
 }"""
-# JS: the explorer's one-line labels (``.camsim-label``) whose text is cut off (wider than their box)
-_LABELS_CUT = """() => {
-  const cut = []; let labels = 0;
-  const walk = (root) => {
-    for (const el of root.querySelectorAll('*')) {
-      if (el.classList && el.classList.contains('camsim-label') && el.shadowRoot) {
-        for (const d of el.shadowRoot.querySelectorAll('div')) {
-          if (getComputedStyle(d).whiteSpace !== 'nowrap' || !d.textContent.trim() || !d.getClientRects().length) continue;
-          labels++;
-          if (d.scrollWidth > d.clientWidth + 1) cut.push(d.textContent.trim());
-        }
-      }
-      if (el.shadowRoot) walk(el.shadowRoot);
-    }
-  };
-  walk(document);
-  return {labels, cut};
-}"""
 
 
 def test_presentation_mode_makes_every_control_and_plot_text_readable_at_1920(browser, server, shared_page):
@@ -254,7 +236,7 @@ def test_presentation_mode_makes_every_control_and_plot_text_readable_at_1920(br
     _until(lambda: len(p := page.page.evaluate(_PLOT_TEXT_SIZES)) > len(plots) and all(px(v) >= 18 for _, v in p),
            "the Camera tab's plots in large text too")
     # every one-line label shows its whole text (the mosaic tile's title was cut to "Mosaic tile (2 x 2; index:...")
-    labels = _until(lambda: (t := page.page.evaluate(_LABELS_CUT))["labels"] >= 2 and t,
+    labels = _until(lambda: (t := page.page.evaluate(LABELS_CUT_JS))["labels"] >= 2 and t,
                     "the labels measured")
     assert not labels["cut"], labels
     # and every plot's title over its plot, whole, in the large text (the Optics & sensor tab's were cut)
