@@ -224,9 +224,10 @@ def zip_case(rng):
     else:
         from camsim_core.scene import macbeth_scene, save_npz_scene
 
-        p = Path(tempfile.mkdtemp()) / "s.npz"
-        save_npz_scene(macbeth_scene(patch_size=2, border=1), p)
-        members = {"scene.npz": p.read_bytes()}
+        with tempfile.TemporaryDirectory() as folder:
+            p = Path(folder) / "s.npz"
+            save_npz_scene(macbeth_scene(patch_size=2, border=1), p)
+            members = {"scene.npz": p.read_bytes()}
     r = rng.random()
     if r < 0.5:  # one member mutated
         names = list(members)
@@ -298,9 +299,16 @@ def fuzz(fmt, count, seed=20261125):
     generator is replayed, so case numbers stay the same).
     """
     outcomes, signatures, start = Counter(), Counter(), 0
+    # the children write their cases in a folder of the parent's, removed here: a child killed on a crash or a
+    # hang removes nothing (a folder made by each child was left in the temporary directory at every run)
+    with tempfile.TemporaryDirectory(prefix="camsim-fuzz-") as folder:
+        return _fuzz(fmt, count, seed, folder, outcomes, signatures, start)
+
+
+def _fuzz(fmt, count, seed, folder, outcomes, signatures, start):
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(Path(__file__).parent.parent), os.environ.get("PYTHONPATH", "")]))
     while start < count:
-        proc = subprocess.Popen([sys.executable, __file__, fmt, str(count), str(seed), str(start)],
+        proc = subprocess.Popen([sys.executable, __file__, fmt, str(count), str(seed), str(start), folder],
                                 stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env)
         current, last = None, time.monotonic()
         import selectors
@@ -349,11 +357,10 @@ def fuzz(fmt, count, seed=20261125):
 
 
 if __name__ == "__main__":
-    fmt, count, seed, start = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]) if len(sys.argv) > 4 else 0
+    fmt, count, seed, start, folder = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), Path(sys.argv[5])
     sys.path.insert(0, str(Path(__file__).parent))
     rng = np.random.default_rng([seed, FORMATS.index(fmt)])
     make, _ = CASES[fmt]
-    folder = Path(tempfile.mkdtemp(prefix="fuzz-"))
     for i in range(count):
         try:
             data = make(rng)  # replayed from the seed, so case i is the same in every child

@@ -179,3 +179,48 @@ def test_the_server_logs_a_write_to_a_closed_page_in_one_line():
                          what="the server's log says what became of the write to a closed page")
     assert "a message to a closed page was dropped" in log, log[-2000:]
     assert "Traceback" not in log and "never retrieved" not in log, log[-2000:]
+
+
+def test_sigterm_stops_the_server_with_status_0_and_leaves_nothing_in_the_temporary_directory(tmp_path):
+    """A service manager stops a server with SIGTERM (``systemctl stop``, ``docker stop``). Killed by the signal's
+    default action the server exited with status -15 and its upload readers' fork server left its folder (a
+    ``pymp-*`` folder with a socket) in the temporary directory at every stop."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    from app_helpers import ROOT, free_port, wait_until
+
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    port = free_port()
+    env = dict(os.environ, TMPDIR=str(tmp), PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               OPENBLAS_NUM_THREADS="1", BOKEH_LOG_LEVEL="warn")
+    proc = subprocess.Popen([sys.executable, "-m", "camsim_core.cli", "serve", "--port", str(port), "--address",
+                             "127.0.0.1", "--no-spare-page"], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    try:
+        wait_until(lambda: proc.poll() is not None or any(p.name.startswith("pymp-") for p in tmp.iterdir()),
+                   what="the upload readers' fork server made its folder")
+        assert proc.poll() is None, proc.communicate()[0]
+        wait_until(lambda: proc.poll() is not None or _answers(port), what="the server answers")
+        proc.send_signal(signal.SIGTERM)
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, out[-2000:]
+    assert "camsim explorer stopped" in out and "Traceback" not in out, out[-2000:]
+    assert list(tmp.iterdir()) == [], out[-2000:]
+
+
+def _answers(port):
+    import socket
+
+    try:
+        with socket.create_connection(("127.0.0.1", port), timeout=2):
+            return True
+    except OSError:
+        return False
