@@ -87,7 +87,18 @@ def warm_up():
     from multiprocessing import forkserver
 
     ctx = _get_context()
-    forkserver.ensure_running()
+    try:
+        forkserver.ensure_running()
+    except OSError as exc:
+        if "path too long" not in str(exc):
+            raise
+        import tempfile
+
+        from ..errors import ParameterError
+
+        raise ParameterError("TMPDIR", f"the temporary directory {tempfile.gettempdir()!r} has too long a path for the "
+                             "upload readers' socket (a socket's path is at most 107 bytes); set TMPDIR to a "
+                             "shorter one, or serve with --no-upload") from None
     proc = ctx.Process(target=_nothing, name="camsim-upload-warm-up", daemon=True)
     proc.start()
     proc.join(30)

@@ -181,10 +181,24 @@ def test_the_server_logs_a_write_to_a_closed_page_in_one_line():
     assert "Traceback" not in log and "never retrieved" not in log, log[-2000:]
 
 
-def test_sigterm_stops_the_server_with_status_0_and_leaves_nothing_in_the_temporary_directory(tmp_path):
+def test_sigterm_stops_the_server_with_status_0_and_leaves_nothing_in_the_temporary_directory():
     """A service manager stops a server with SIGTERM (``systemctl stop``, ``docker stop``). Killed by the signal's
     default action the server exited with status -15 and its upload readers' fork server left its folder (a
     ``pymp-*`` folder with a socket) in the temporary directory at every stop."""
+    import shutil
+    import tempfile
+    from pathlib import Path
+
+    # a short path: the fork server's socket lives there, and a socket's path is at most 107 bytes (pytest's
+    # tmp_path under a worker of pytest-xdist is longer: "AF_UNIX path too long")
+    tmp = Path(tempfile.mkdtemp(prefix="camsim-sigterm-", dir="/tmp"))
+    try:
+        _stop_with_sigterm(tmp)
+    finally:
+        shutil.rmtree(tmp)
+
+
+def _stop_with_sigterm(tmp):
     import os
     import signal
     import subprocess
@@ -192,13 +206,11 @@ def test_sigterm_stops_the_server_with_status_0_and_leaves_nothing_in_the_tempor
 
     from app_helpers import ROOT, free_port, wait_until
 
-    tmp = tmp_path / "tmp"
-    tmp.mkdir()
     port = free_port()
     env = dict(os.environ, TMPDIR=str(tmp), PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
                OPENBLAS_NUM_THREADS="1", BOKEH_LOG_LEVEL="warn")
     proc = subprocess.Popen([sys.executable, "-m", "camsim_core.cli", "serve", "--port", str(port), "--address",
-                             "127.0.0.1", "--no-spare-page"], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                             "127.0.0.1", "--no-spare-page"], cwd=tmp, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     try:
         wait_until(lambda: proc.poll() is not None or any(p.name.startswith("pymp-") for p in tmp.iterdir()),
@@ -224,3 +236,32 @@ def _answers(port):
             return True
     except OSError:
         return False
+
+
+def test_a_temporary_directory_too_long_for_the_upload_readers_socket_is_named():
+    """The upload readers' fork server listens on a socket in the temporary directory, whose path is at most
+    107 bytes: with a longer TMPDIR ``camsim serve`` said only "OSError: AF_UNIX path too long"."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    from app_helpers import ROOT, free_port
+
+    tmp = Path(tempfile.mkdtemp(prefix="camsim-long-", dir="/tmp"))
+    deep = tmp / ("d" * 100)
+    deep.mkdir()
+    env = dict(os.environ, TMPDIR=str(deep), PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+               OPENBLAS_NUM_THREADS="1", BOKEH_LOG_LEVEL="warn")
+    try:
+        run = subprocess.run([sys.executable, "-m", "camsim_core.cli", "serve", "--port", str(free_port()),
+                              "--address", "127.0.0.1", "--no-spare-page"], cwd=tmp, env=env, capture_output=True,
+                             text=True, timeout=120)
+        left = list(deep.iterdir())
+    finally:
+        shutil.rmtree(tmp)
+    assert run.returncode == 2, run.stdout + run.stderr
+    assert "camsim serve: error: TMPDIR: " in run.stderr and "--no-upload" in run.stderr, run.stderr
+    assert "Traceback" not in run.stderr + run.stdout and left == []
