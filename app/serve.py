@@ -426,6 +426,9 @@ def run(args):
     compat.apply()  # Panel's internals the explorer relies on: a warning in the log for each one missing
     compat.hooks.served_without_cdn()  # a served page's files come from this server, whatever Panel's mode
     _build_off_loop.install()
+    from .compat import early_head as _early_head
+
+    _early_head.install()  # a link's page sends its scripts while it is built (before the spare hook wraps it)
     if not args.no_spare_page:
         from .compat import spare_session as _spare_session
 

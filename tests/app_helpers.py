@@ -135,14 +135,20 @@ def new_page(browser):
 class Page:
     """A Playwright page on the explorer, with its console messages."""
 
-    def __init__(self, browser, url):
+    def __init__(self, browser, url, while_loading=None):
+        """Open ``url``; ``while_loading(playwright_page)``, when given, is called as soon as the page's answer
+        begins (before the browser has all of it), then the page is awaited as usual."""
         self.page = new_page(browser)
         self.viewport = self.page.viewport_size
         self.console = []
         self.page.set_default_timeout(TIMEOUT * 1000)
         self.page.on("console", lambda m: self.console.append((m.type, f"{m.text} ({m.location.get('url', '')})")))
         self.page.on("pageerror", lambda e: self.console.append(("pageerror", str(e))))
-        self.response = self.page.goto(url)
+        if while_loading is None:
+            self.response = self.page.goto(url)
+        else:
+            self.response = self.page.goto(url, wait_until="commit")
+            while_loading(self.page)
         self.page.locator(".camsim-status pre").first.wait_for(state="attached", timeout=TIMEOUT * 1000)
         self.wait_for(lambda s: s.get("mean_de") is not None)
 

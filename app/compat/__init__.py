@@ -8,6 +8,8 @@ checks the source of every other module). What is here, and why:
 * :mod:`.build_off_loop` - pages built in a thread, not on the event loop
   (1-1.4 s per page that every other visitor waited);
 * :mod:`.spare_session` - the next visitor's page built while the server is idle;
+* :mod:`.early_head` - a page built for its request (a link) sends its scripts
+  first, and the browser loads them while the server builds the page;
 * :mod:`.bokeh_defaults` - Bokeh sends a model without making the defaults it
   then drops, and makes a plain default once per class (a tab shown again: 30-50 %
   less of the server's CPU);
@@ -59,11 +61,12 @@ def versions_tested():
 def status():
     """``{hook: True when the internals it needs are present}`` for every hook of :mod:`.hooks` and
     :mod:`.tuning`, and whether :mod:`.build_off_loop`'s Bokeh method is the one it was written against."""
-    from . import bokeh_defaults, build_off_loop, tuning
+    from . import bokeh_defaults, build_off_loop, early_head, tuning
 
     out = {name: bool(check()) for name, check in hooks.HOOKS.items()}
     out.update(tuning.available())
     out["build_off_loop"] = build_off_loop.matches_bokeh()
+    out["early_head"] = early_head.matches_panel()
     out["skip_discarded_defaults"] = bokeh_defaults.matches_bokeh("query_properties_with_values")
     out["plain_defaults_once"] = bokeh_defaults.matches_bokeh("_get_default") and bokeh_defaults.matches_bokeh(
         "themed_values")
@@ -106,6 +109,7 @@ def apply():
         "skip_busy_tracking": "Panel's busy counter costs ~9 ms a change",
         "design_only_for_stylesheets": "Panel resolves design stylesheets on every change (~6 ms)",
         "build_off_loop": "pages are built on the event loop (1-1.4 s during which others wait)",
+        "early_head": "a link's page sends its scripts only once it is built",
         "skip_discarded_defaults": "Bokeh makes and drops every default of every model it sends (5-7 times slower)",
         "plain_defaults_once": "Bokeh makes a default anew at every read (a tab switch ~20 % dearer on the server)",
     }

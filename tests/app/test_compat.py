@@ -38,7 +38,7 @@ def test_every_hook_applies_to_the_installed_panel_and_bokeh():
                            "flush_stranded_writes", "undelay", "favicon_type", "address_writer", "tornado_app",
                            "skip_busy_tracking", "design_only_for_stylesheets", "build_off_loop",
                            "served_without_cdn", "skip_discarded_defaults", "plain_defaults_once",
-                           "connected_at_pull"}
+                           "connected_at_pull", "early_head"}
 
 
 def test_panel_and_bokeh_are_releases_the_hooks_were_tested_with():

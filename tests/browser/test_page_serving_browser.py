@@ -40,6 +40,47 @@ def test_a_first_result_landing_while_the_page_renders_is_shown(browser):
             pg.close()
 
 
+def test_a_links_page_sends_its_scripts_before_it_is_built(browser, tmp_path, monkeypatch):
+    """A link's page is built for its request (1-2 s with pinned designs). The head of the page, its scripts
+    (Bokeh's and Panel's, the same in every page), goes first: the browser has run them before the page is built
+    (the build waits here for a gate the test opens only then). Before, nothing came until the page was built.
+    A page that does not begin as sent (another title here) is asked for again and comes whole."""
+    import urllib.request
+
+    gate = tmp_path / "gate"
+    monkeypatch.setenv("CAMSIM_TEST_GATE", str(gate))
+    launcher = ARTIFACTS.parent / "tests" / "serve_gated_build.py"
+    with explorer_server(launcher=launcher, extra_args=["--no-spare-page", "--no-upload"]) as url:
+        for _ in range(2):  # two pages that begin alike: the server then sends that beginning first
+            with urllib.request.urlopen(url, timeout=120) as answer:
+                assert answer.status == 200
+
+        def scripts_run_before_the_build(pw):
+            wait_until(lambda: pw.evaluate("() => typeof Bokeh !== 'undefined' && document.readyState"),
+                       until=lambda state: state == "loading", what="Bokeh's script run while the page still loads")
+            names = pw.evaluate("performance.getEntriesByType('resource').map(r => r.name)")
+            assert any("bokeh.min.js" in n for n in names) and any("panel.min.js" in n for n in names), names
+            assert not gate.exists()
+            gate.touch()
+
+        pg = Page(browser, url + "?noise_sigma=3", while_loading=scripts_run_before_the_build)
+        try:
+            assert pg.session_made() == "built"
+            assert pg.status()["params"]["noise_sigma"] == 3
+            assert pg.errors() == []
+        finally:
+            pg.close()
+        gate.unlink()  # a page whose head is not the one sent first: the browser asks again and gets it whole
+        other = Page(browser, url + "?noise_sigma=2&camsim_test_title=Another+head",
+                     while_loading=lambda pw: gate.touch())
+        try:
+            assert other.status()["params"]["noise_sigma"] == 2 and other.page.title() == "Another head"
+            assert other.errors() == []
+        finally:
+            other.close()
+        assert "did not begin as its head sent first; the browser asks again" in server_log(url)
+
+
 def test_page_loads_without_console_errors(page):
     s = page.status()
     page.shot("explorer-loaded")
