@@ -337,6 +337,9 @@ class ExplorerState(param.Parameterized):
         self._fitted = set()  # names of the charts fit_chart made (re-fitted when the frame changes)
         self._pending_fit = None  # a chart being fitted in the computing thread (see ``fit_chart``)
         self._chart_notice = ""  # the notice of a chart fitted here, carried by the next job to ``_apply``
+        #: ``(the exposure before, the chart's)`` while a chart's auto exposure is in force (put back when the
+        #: scene leaves the charts: ``_exposure_after_charts``)
+        self._exposure_before_chart = None
         self._built = None  # (name, chart) made in the computing thread and not yet shown (a newer job reuses it)
         #: ``prepare(result)`` callables run after each computation, in the computing thread (views put their
         #: display arrays there, so the event loop only hands them to the browser)
@@ -395,6 +398,7 @@ class ExplorerState(param.Parameterized):
                     self._updating = False
         if "mosaic" in names and self.mosaic == "custom" and self.result is not None:
             self._start_custom_tile()
+        self._exposure_after_charts(names)
         fit, expose = self._fit_wanted(names)
         # issue 37: a chart picked in the scene list fills the frame; a fitted chart follows the frame's changes
         fitted = self.fit_chart(fit, expose=expose) if fit else ""
@@ -402,6 +406,37 @@ class ExplorerState(param.Parameterized):
         self.recompute()
         if refused and not self.message:
             self.message = refused
+
+    def _exposure_after_charts(self, names):
+        """A scene that is not a chart, picked after a chart whose auto exposure is still the one in force, gets
+        the exposure that was in force before the chart (with a notice saying so): a chart's exposure (0.8 s on
+        the default camera, against 0.1 s) over-exposed the photo picked after it (69.5 % of its pixels
+        clipped). An exposure the user sets meanwhile, or with the new scene, is kept."""
+        if self._exposure_before_chart is None:
+            return
+        if "exposure" in names:
+            self._exposure_before_chart = None  # the user's exposure from now on
+            return
+        if "scene" not in names or self.scene.partition(":")[0] in _CHART_NAMES:
+            return
+        before, chart = self._exposure_before_chart
+        self._exposure_before_chart = None
+        if self.exposure != chart:
+            return
+        updating, self._updating = self._updating, True
+        try:
+            self.exposure = before
+        finally:
+            self._updating = updating
+        self._chart_notice = (f"Exposure {before:.4g} s again, as before the chart (its auto exposure, {chart:.4g} s, "
+                              "was for the chart).")
+
+    def _note_chart_exposure(self, before, chart):
+        """A chart's auto exposure ``chart`` (s) replaced ``before`` (s): the exposure to put back when the scene
+        leaves the charts is the one before the first of them."""
+        if self._exposure_before_chart is not None:
+            before = self._exposure_before_chart[0]
+        self._exposure_before_chart = (float(before), float(chart))
 
     #: Parameters that change the camera's frame (its pixels, their angle, the distance): a fitted chart follows.
     _FRAME_PARAMETERS = frozenset({"camera", "distance", "sensor"})
@@ -793,7 +828,9 @@ class ExplorerState(param.Parameterized):
             self.add_scene(spec["key"], scene)
             self._lit = (scene, spec["light"], lit)
             if value is not None:
+                before = self.exposure
                 self.exposure = float(np.clip(value, lo, hi))
+                self._note_chart_exposure(before, self.exposure)
         finally:
             self._updating = updating
         self._fitted.add(spec["key"])
@@ -854,7 +891,7 @@ class ExplorerState(param.Parameterized):
             return self._unfitted(job), job["camera"]
         lo, hi = self.param.exposure.bounds
         exposure = job["camera"].exposure if value is None else float(np.clip(value, lo, hi))
-        spec.update(scene=scene, lit=lit, exposure=exposure)
+        spec.update(scene=scene, lit=lit, exposure=exposure, exposed=value is not None)
         job["notice"] = self._fit_notice(spec, scene, value, exposure)
         return lit, job["camera"] if value is None else job["camera"].replace(exposure=exposure)
 
@@ -878,6 +915,8 @@ class ExplorerState(param.Parameterized):
         try:
             self.add_scene(spec["key"], spec["scene"], select=False)
             self._lit = (spec["scene"], spec["light"], spec["lit"])
+            if spec.get("exposed"):
+                self._note_chart_exposure(self.exposure, spec["exposure"])
             self.param.update(scene=spec["key"], exposure=spec["exposure"])
         finally:
             self._updating = updating
@@ -923,6 +962,7 @@ class ExplorerState(param.Parameterized):
             values["scene"] = scene
         self._pending_fit = self._built = None  # a chart fitted for the old design is not wanted any more
         self._fitted.clear()
+        self._exposure_before_chart = None
         try:
             self._updating = True  # one computation for all of it, not one per parameter
             self.param.update(**values, message="")
