@@ -30,6 +30,7 @@ from camsim_core.scene.charts import CHART_NAMES, chart_defaults
 
 from . import compat
 from .compat import hooks as _compat
+from .compat.number_box import FloatInput  # reads any number the browser sends
 from . import state as state_module
 from .body_class import BodyClass
 from .compare import compare_tab
@@ -38,8 +39,8 @@ from .physical import SensorControls
 from .quality import QualityView
 from .safe_text import md_text
 from .shown import WhenShown, next_tick, now, page_being_built
-from .state import (BITS_CHOICES, COMPARE_PARAMETERS, PAGE_PARAMETERS, TAB_NAMES, URL_PARAMETERS, VIEW_PARAMETERS,
-                    ExplorerState, Runner)
+from .state import (COMPARE_PARAMETERS, PAGE_PARAMETERS, TAB_NAMES, URL_PARAMETERS, VIEW_PARAMETERS,
+                    ExplorerState, Runner, bits_choices)
 from .typed_text import TypedTextWatch
 from .upload import BoundedUpload
 from .views import CameraView, ResultsView, SceneView, Text, _after, once, when_page_ready
@@ -323,8 +324,8 @@ def _controls(state, results):
 
     distance = _slider_number(state, "distance", "w-distance", "Distance (m)",
                             start=0.5, end=10.0, step=0.01)
-    exposure = _number(w.FloatInput, state, "exposure", "w-exposure", "Exposure (s)", step=0.005, format="0.0000")
-    light = _number(w.FloatInput, state, "light", "w-light", "Light level (x the scene's)", step=0.1, format="0.000",
+    exposure = _number(FloatInput, state, "exposure", "w-exposure", "Exposure (s)", step=0.005, format="0.0000")
+    light = _number(FloatInput, state, "light", "w-light", "Light level (x the scene's)", step=0.1, format="0.000",
                     description="A factor of the scene's own light, 0.001 to 1000: radiance and illuminant scaled")
     auto = w.Button(label="Auto exposure", css_classes=["w-auto"], color="primary", width=120,
                     description="Exposure putting the scene's brightest 0.5 % at 90 % of full scale")
@@ -332,12 +333,13 @@ def _controls(state, results):
     f_stop = _slider_number(state, "f_stop", "w-fstop", "f-stop", start=1.0, end=32.0, step=0.1)
     noise = _slider_number(state, "noise_sigma", "w-noise", "Noise sigma (digital units)",
                            start=0.0, end=50.0, step=0.5)
-    bits = w.Select(label="Bits of the raw (the display is 8-bit)", options=BITS_CHOICES, value=state.bits,
-                    css_classes=["w-bits"], sizing_mode="stretch_width")
+    # the choices follow the state (bound before the link: a link's 7 bits is among them when the value comes)
+    bits = w.Select(label="Bits of the raw (the display is 8-bit)", options=pn.bind(bits_choices, state.param.bits),
+                    value=state.bits, css_classes=["w-bits"], sizing_mode="stretch_width")
     bits.link(state, value="bits", bidirectional=True)
     # a float box: a whole number past 2**53 typed into Bokeh's integer box reached the server as nothing (no
     # message, the text left standing); here it arrives as a number and the state refuses it by name
-    seed = _number(w.FloatInput, state, "seed", "w-seed", "Noise seed", step=1, format="0")
+    seed = _number(FloatInput, state, "seed", "w-seed", "Noise seed", step=1, format="0")
 
     demosaic = _select(state, "demosaic_method", "w-demosaic", "Demosaicing")
     render = _select(state, "render_method", "w-render", "Rendering")
@@ -648,8 +650,12 @@ def create_app(scene=None):
         chart_refused = []  # why the link's chart was refused, quoted with the link's refusal
 
         def on_error(values):
-            # every refused parameter is named (a link holds at most the few dozen the page syncs), each value
+            # Param refused the link's values as one batch: the ones their parameters accept are set, as one
+            # change; every refused one is named (a link holds at most the few dozen the page syncs), each value
             # quoted to 40 characters
+            values = state.apply_valid(values)
+            if not values:
+                return
             shown = ", ".join(f"{k} {state_module.short_repr(v, 40)}" for k, v in values.items())
             why = f" ({chart_refused[0][:300]})" if chart_refused else ""
             _tell(state, f"The link held parameters that were refused: {shown}{why}")

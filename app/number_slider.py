@@ -20,6 +20,8 @@ import math
 import panel as pn
 import param
 
+from .compat.number_box import FloatInput
+
 __all__ = ["NumberSlider"]
 
 
@@ -37,7 +39,7 @@ class NumberSlider(pn.viewable.Viewer):
     def __init__(self, *, label, css, start, end, step, value, **params):
         super().__init__(value=value, **params)
         self._range = (start, end)
-        self.box = pn.widgets.FloatInput(label=label, value=value, step=step, css_classes=[css],
+        self.box = FloatInput(label=label, value=value, step=step, css_classes=[css],
                                          sizing_mode="stretch_width")
         self.slider = pn.widgets.FloatSlider(start=start, end=end, step=step, value=self._on_slider(value),
                                              show_value=False, css_classes=[f"{css}-slider"],

@@ -21,6 +21,7 @@ from camsim_core.errors import CamsimError
 from camsim_core.optics import cutoff_frequency, diffraction_mtf
 from camsim_core.simulation.electrons import photon_transfer, system_gain
 
+from .compat.number_box import FloatInput  # reads any number the browser sends
 from .curves import Curve, CurvesPlot, Mark
 from .safe_text import md_text
 from .shown import now, off_the_loop
@@ -242,7 +243,7 @@ class SensorControls(pn.viewable.Viewer):
         self.inputs = {}
         for name, (unit, low, high, what) in SENSOR_FIELDS.items():
             label, css = self.LABELS[name]
-            box = pn.widgets.FloatInput(label=label, value=None, css_classes=[css], sizing_mode="stretch_width",
+            box = FloatInput(label=label, value=None, css_classes=[css], sizing_mode="stretch_width",
                                         description=f"{what}; {low:g} to {high:g} {unit}. Clear it for the camera's own.")
             box.param.watch(lambda e, n=name: self._from_widget(n, e.new), "value")
             self.inputs[name] = box

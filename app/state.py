@@ -59,6 +59,23 @@ __all__ = ["ExplorerState", "Runner", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_P
 #: Bits offered; 0 means unquantized.
 BITS_CHOICES = {"8": 8, "10": 10, "12": 12, "16": 16, "unquantized": 0}
 
+
+def bits_choices(bits):
+    """The bits list's choices: :data:`BITS_CHOICES`, and ``bits`` among them when a link or a parameters file
+    set another depth (any whole number 0-16 is a camera's): the list showed "8" for a link's 7 bits, and
+    sent 8 back.
+
+    Examples
+    --------
+    >>> list(bits_choices(12)) == list(BITS_CHOICES)
+    True
+    >>> bits_choices(7)
+    {'7': 7, '8': 8, '10': 10, '12': 12, '16': 16, 'unquantized': 0}
+    """
+    if bits in BITS_CHOICES.values():
+        return dict(BITS_CHOICES)
+    return dict(sorted({**BITS_CHOICES, str(bits): bits}.items(), key=lambda kv: (kv[1] == 0, kv[1])))
+
 #: The parameters a URL carries (name in the URL = parameter name).
 URL_PARAMETERS = (
     "scene", "light", "camera", "alpha", "gaussian_centers", "gaussian_widths", "optics", "sensor", "mosaic", "custom_tile",
@@ -396,8 +413,10 @@ class ExplorerState(param.Parameterized):
                     self.param.update(gaussian_centers=centers, gaussian_widths=widths)
                 finally:
                     self._updating = False
-        if "mosaic" in names and self.mosaic == "custom" and self.result is not None:
-            self._start_custom_tile()
+        if "mosaic" in names and self.mosaic == "custom" and "custom_tile" not in names and self.result is not None:
+            self._start_custom_tile()  # a tile set with the mosaic (a link, a file) is the user's: used or refused
+        elif names & {"camera", "sensor"} and not names & {"mosaic", "custom_tile"} and self.mosaic == "custom":
+            self._custom_tile_for_new_camera()
         self._exposure_after_charts(names)
         fit, expose = self._fit_wanted(names)
         # issue 37: a chart picked in the scene list fills the frame; a fitted chart follows the frame's changes
@@ -486,6 +505,25 @@ class ExplorerState(param.Parameterized):
                     self.custom_tile = "; ".join(" ".join(str(int(v)) for v in row) for row in np.asarray(tile))
                 finally:
                     self._updating = False
+
+    def _custom_tile_for_new_camera(self):
+        """A custom tile that does not sample every sensor of a new camera (0 1 2 on a camera of four) gives way to
+        the camera's own mosaic, with a notice: it made every camera of more sensors refused until the mosaic
+        was put back by hand."""
+        tile = self.custom_tile
+        try:
+            cam = self.camera_object()
+            if set(np.unique(np.asarray(cam.mosaic)).tolist()) == set(range(len(cam.sensors))):
+                return
+        except CamsimError:
+            pass
+        updating, self._updating = self._updating, True
+        try:
+            self.mosaic = "preset"
+        finally:
+            self._updating = updating
+        self._chart_notice = (f"Mosaic back to the camera's own: the custom tile {tile} does not sample each of "
+                              f"{self.camera}'s sensors.")
 
     def recompute(self):
         """Compute the result for the current parameters (in the background when a runner is set).
@@ -940,6 +978,35 @@ class ExplorerState(param.Parameterized):
             self.scene = key
 
     # -- reproducible state ----------------------------------------------------
+    def apply_valid(self, values):
+        """Set the parameters of ``values`` ({name: value}) that their parameter accepts, as one change; return
+        the refused ones ({name: value}).
+
+        For a link whose batch of values Param refused as a whole: Param sets the values before the first bad one
+        without telling the watchers, and none after it, so one bad value in a link (``seed=-3``) made the
+        values after it refused too and left those before it set but not computed.
+
+        Examples
+        --------
+        >>> s = ExplorerState(start=False)
+        >>> s.apply_valid({"seed": -3, "noise_sigma": 1.0, "distance": 5.0})
+        {'seed': -3}
+        >>> (s.seed, s.noise_sigma, s.distance, s.shown["noise_sigma"], s.shown["distance"])
+        (0, 1.0, 5.0, 1.0, 5.0)
+        """
+        refused, accepted = {}, []
+        with param.discard_events(self):  # each checked by its own parameter; the watchers told once, below
+            for name, value in values.items():
+                try:
+                    setattr(self, name, value)
+                except Exception:
+                    refused[name] = value
+                else:
+                    accepted.append(name)
+        if accepted:
+            self.param.trigger(*accepted)
+        return refused
+
     def start_over(self, scene=None):
         """Back to the design a new page opens with: ``scene`` (default: the parameter's default), the default
         camera and every other design and view setting at its default, the Results tab; one computation.

@@ -14,6 +14,8 @@ checks the source of every other module). What is here, and why:
   then drops, and makes a plain default once per class (a tab shown again: 30-50 %
   less of the server's CPU);
 * :mod:`.plain_text` - a ``Str`` pane whose text is escaped (user text never HTML);
+* :mod:`.number_box` - a number box that reads any whole number the browser sends
+  (one beyond 64 bits raised in Panel's callback);
 * :mod:`.hooks` - no MathJax bundle (1.8 MB per first visit), link values
   Panel cannot parse kept as text (an HTTP 500 before), browser-side links
   of closed sessions dropped (a leak), changes Panel queued and forgot sent

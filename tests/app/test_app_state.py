@@ -738,3 +738,40 @@ def test_a_page_makes_no_panel_callback():
         assert [type(o).__name__ for o in found if o in Callback.registry] == []
     finally:
         _release(template.state, template.body, template)
+
+
+def test_one_refused_value_of_a_link_leaves_the_others_applied_and_computed(state):
+    """Param refuses a batch of values as a whole, setting those before the first bad one without telling the
+    watchers: a link "seed=-3&noise_sigma=1&distance=5" had noise and distance refused with the seed."""
+    assert state.apply_valid({"seed": -3, "noise_sigma": 1.0, "distance": 5.0, "tab": "camera"}) == {"seed": -3}
+    assert (state.seed, state.noise_sigma, state.distance, state.tab) == (0, 1.0, 5.0, "camera")
+    assert state.shown["noise_sigma"] == 1.0 and state.shown["distance"] == 5.0  # computed, not only set
+    assert state.result.camera.distance == 5.0
+    # the camera and its sensor in one link: one change, so the camera does not clear the sensor sheet after it
+    assert state.apply_valid({"sensor": "", "camera": "gaussian-3", "bits": "eight"}) == {"bits": "eight"}
+    assert state.shown["camera"] == "gaussian-3"
+
+
+def test_a_custom_tile_given_with_the_custom_mosaic_is_the_users(state):
+    """A link or a file setting the mosaic to custom and its tile: the tile is used, or refused by name. It was
+    replaced without a word by the tile shown (what picking "custom" in the list does)."""
+    state.param.update(mosaic="custom", custom_tile="0 5")
+    assert "tile names sensor index 5" in state.message and state.shown["mosaic"] == "preset"
+    state.param.update(mosaic="custom", custom_tile="2 1; 1 0")
+    assert state.message == "" and state.shown["custom_tile"] == "2 1; 1 0"
+    np.testing.assert_array_equal(state.result.raw.tile, [[2, 1], [1, 0]])
+
+
+def test_a_custom_tile_that_misses_a_sensor_of_a_new_camera_gives_way_to_its_mosaic(state):
+    """A custom tile "0 1 2" on a camera of three sensors made every camera of four refused ("tile never samples
+    sensor class(es) [3]") until the mosaic was put back by hand."""
+    state.camera = "gaussian-3"
+    state.param.update(mosaic="custom", custom_tile="0 1 2")
+    assert state.shown["custom_tile"] == "0 1 2" and state.message == ""
+    state.camera = "gaussian-4"
+    assert state.message == "" and state.shown["camera"] == "gaussian-4" and state.mosaic == "preset"
+    assert "Mosaic back to the camera's own: the custom tile 0 1 2" in state.notice
+    state.camera = "gaussian-3"
+    state.param.update(mosaic="custom", custom_tile="0 1 2")
+    state.camera = "kodak-dcs200"  # a tile that still fits (three sensors) is kept
+    assert state.mosaic == "custom" and state.shown["custom_tile"] == "0 1 2"

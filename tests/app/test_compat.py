@@ -209,13 +209,30 @@ def test_the_scan_finds_a_private_use(tmp_path):
 
 
 @pytest.mark.parametrize("name", ["camsim_explorer.compat.tuning", "camsim_explorer.compat.plain_text",
-                                  "camsim_explorer.compat.bokeh_defaults"])
+                                  "camsim_explorer.compat.bokeh_defaults", "camsim_explorer.compat.number_box",
+                                  "camsim_explorer.compat.early_head"])
 def test_compat_examples_run(name):
     import doctest
     import importlib
 
     result = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS)
     assert result.attempted > 0 and result.failed == 0
+
+
+def test_a_number_box_takes_any_whole_number_the_browser_sends():
+    """JavaScript writes 1e20 as "100000000000000000000", an int beyond 64 bits that Panel's own box handed to
+    ``np.isnan`` (TypeError, a traceback in the server's log). Sent through Panel's event processing, as the
+    browser's message is; fails when Panel stops calling the override."""
+    import panel as pn
+
+    from camsim_explorer.compat.number_box import FloatInput
+
+    with pytest.raises(TypeError):  # the hazard, in Panel's own box
+        pn.widgets.FloatInput(value=1.0)._process_events({"value": 10 ** 20})
+    box = FloatInput(value=1.0)
+    for sent, read in ((10 ** 20, 1e20), (-(10 ** 400), float("-inf")), (7, 7.0), (2.5, 2.5)):
+        box._process_events({"value": sent})
+        assert box.value == read and type(box.value) is float, (sent, box.value)
 
 
 def test_the_server_serves_its_resources_itself_whatever_the_environment(monkeypatch):

@@ -247,3 +247,45 @@ def test_a_link_value_is_applied_or_named_never_dropped(browser, server, kind):
         _check_clean(page, server)
     finally:
         page.close()
+
+
+def test_a_whole_number_past_64_bits_in_any_box_is_taken_or_refused_by_name(browser, server):
+    """JavaScript sends 99999999999999999999 as the integer 100000000000000000000, which Panel's number box handed
+    to ``np.isnan``: a TypeError in the server's log, no message, the box out of step with the result (seen for
+    the noise seed). Each box now takes it (the seed has no upper limit) or refuses it by name."""
+    page = Page(browser, server)
+    try:
+        _type(page, "w-noise", "2")
+        page.wait_for(lambda s: s["params"]["noise_sigma"] == 2 and not s.get("computing"))
+        for css, (name, words) in NUMBER_BOXES.items():
+            before, kept = _messages(page), _settled(page)["params"][name]
+            _type(page, css, "99999999999999999999")
+            if name == "seed":
+                s = page.wait_for(lambda s: s["params"]["seed"] == 10 ** 20 and not s.get("computing"))
+            else:
+                _refused(page, before, words, f"1e20 in {css}")
+                s = page.wait_for(lambda s: s["params"][name] == kept and not s.get("computing"))
+            wait_until(lambda: _number_shown(page, css) is not None
+                       and math.isclose(_number_shown(page, css), s["params"][name], rel_tol=1e-3),
+                       what=f"{css} shows {s['params'][name]}")
+        _check_clean(page, server)
+    finally:
+        page.close()
+
+
+def test_one_refused_link_value_is_named_alone_and_the_others_are_applied(browser, server):
+    """A link "seed=-3&noise_sigma=1&distance=5": Param refused the batch, and the message named all three, noise
+    and distance left at their defaults. A link's 7 bits (a depth the list does not offer) is shown as 7, not as
+    the list's 8 (which the list then sent back)."""
+    page = Page(browser, server + "?" + urlencode({"seed": -3, "noise_sigma": 1, "distance": 5, "bits": 7}))
+    try:
+        s = page.wait_for(lambda s: s["params"]["distance"] == 5 and not s.get("computing"))
+        assert (s["params"]["noise_sigma"], s["params"]["bits"], s["params"]["seed"]) == (1, 7, 0)
+        message = wait_until(page.alert_text, what="the link's refusal")
+        assert "seed" in message and "noise_sigma" not in message and "distance" not in message, message
+        wait_until(lambda: page.page.locator(".w-bits select").first.input_value() == "7",
+                   what="the bits list shows 7")
+        assert _settled(page)["params"]["bits"] == 7  # the list did not send its own choice back
+        _check_clean(page, server)
+    finally:
+        page.close()
