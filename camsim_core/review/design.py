@@ -153,10 +153,20 @@ def _check_text(text, name, max_text):
     return text
 
 
-def parse_numbers(text, name, *, max_count=MAX_SENSORS, max_text=MAX_TEXT):
+def parse_numbers(text, name, *, max_count=MAX_SENSORS, max_text=MAX_TEXT, counted="sensors"):
     """Comma- or space-separated finite numbers from a text field (a ParameterError naming ``name`` otherwise).
 
-    At most ``max_count`` numbers in at most ``max_text`` characters.
+    At most ``max_count`` numbers (``counted``: what each is, for the message) in at most ``max_text``
+    characters.
+
+    Examples
+    --------
+    >>> parse_numbers("450, 550 650", "gaussian_centers")
+    [450.0, 550.0, 650.0]
+    >>> parse_numbers("1 2 3", "sweep: values", max_count=2, counted="values")
+    Traceback (most recent call last):
+    ...
+    camsim_core.errors.ParameterError: sweep: values: 3 numbers given; at most 2 values are allowed
     """
     text = _check_text(text, name, max_text)
     try:
@@ -166,7 +176,7 @@ def parse_numbers(text, name, *, max_count=MAX_SENSORS, max_text=MAX_TEXT):
     if not values:
         raise ParameterError(name, "expected at least one number")
     if len(values) > max_count:
-        raise ParameterError(name, f"{len(values)} numbers given; at most {max_count} sensors are allowed")
+        raise ParameterError(name, f"{len(values)} numbers given; at most {max_count} {counted} are allowed")
     if not all(math.isfinite(v) for v in values):
         raise ParameterError(name, f"expected finite numbers, got {text!r}")
     return values

@@ -73,7 +73,7 @@ def check_sweep(sweep, where="sweep"):
         raise ParameterError(f"{where}: parameter", f"expected one of {', '.join(SWEEP_PARAMETERS)}, got {parameter!r}")
     values = sweep.get("values")
     if isinstance(values, str):
-        values = parse_numbers(values, f"{where}: values")
+        values = parse_numbers(values, f"{where}: values", max_count=MAX_SWEEP_VALUES, counted="values")
     if not isinstance(values, (list, tuple)) or not values:
         raise ParameterError(f"{where}: values", "expected a non-empty list of numbers")
     if len(values) > MAX_SWEEP_VALUES:

@@ -130,6 +130,18 @@ def test_bad_sweeps_are_refused_before_running(designs, parameter, values, match
         run_sweep(designs, parameter, values)
 
 
+def test_sweep_values_typed_as_text_have_the_sweeps_limit():
+    """The Compare tab's values box is text: it was read with the Gaussian centres' limit (16 numbers, "at most 16
+    sensors are allowed"), so 17-25 values were refused, and 26 with a message naming sensors."""
+    from camsim_core.review import MAX_SWEEP_VALUES
+    from camsim_core.review.sweep import check_sweep
+
+    typed = ", ".join(str(v) for v in range(MAX_SWEEP_VALUES))
+    assert check_sweep({"parameter": "noise_sigma", "values": typed})["values"] == [float(v) for v in range(25)]
+    with pytest.raises(ParameterError, match="26 numbers given; at most 25 values are allowed"):
+        check_sweep({"parameter": "noise_sigma", "values": typed + ", 25"})
+
+
 def test_design_file_with_pinned_designs_and_a_sweep(tmp_path):
     from camsim_explorer.state import ExplorerState
 
