@@ -45,7 +45,7 @@ from bokeh.plotting import figure
 from camsim_core.cache import Pipeline
 from camsim_core.errors import CamsimError
 from camsim_core.review.design import (DESIGN_DEFAULTS, MAX_NAME, MAX_PINNED, QUALITY_LABELS, _SHARED,
-                                       check_pinned, differing_parameters, evaluate_design, quality_measures,
+                                       applied_parameters, check_pinned, differing_parameters, evaluate_design, quality_measures,
                                        result_from_pipeline)
 from camsim_core.review.difference import ab_difference
 from camsim_core.review.report import (DESIGN_COLOURS, design_colours, map_top, quality_cell, report_html, scale_top,
@@ -501,6 +501,11 @@ class HistogramPlot:
 #: A progress bar with nothing done is not drawn, but keeps its place: the page is not laid out again when it
 #: fills (a change of ``visible`` lays the whole tab out, 0.3-0.45 s with designs pinned).
 _EMPTY_BAR_HIDDEN = 'progress[value="0"] { visibility: hidden; }'
+
+
+def _applied_text(value):
+    """A table cell's text for a design's parameter: escaped, or a dash when it does not apply to the camera."""
+    return "\u2014" if value is None else html_text(value)
 
 
 class CompareView:
@@ -1063,7 +1068,8 @@ class CompareView:
             return "<p>No design yet.</p>"
         differ = differing_parameters([r.params for r in results], skip=_SHARED)
         head = "".join(f"<th>{html_text(r.name)}</th>" for r in results)
-        rows = [f"<tr><th>{html_text(k)}</th>" + "".join(f"<td>{html_text(r.params.get(k))}</td>" for r in results) + "</tr>"
+        applied = [applied_parameters(r.params) for r in results]  # a parameter the camera does not use: a dash
+        rows = [f"<tr><th>{html_text(k)}</th>" + "".join(f"<td>{_applied_text(p[k])}</td>" for p in applied) + "</tr>"
                 for k in differ]
         for metric, key in (("dE", "cielab"), ("S-CIELAB dE", "scielab")):
             for stat, label in (("mean", "mean"), ("median", "median"), ("p95", "95th pct")):

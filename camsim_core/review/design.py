@@ -33,7 +33,7 @@ __all__ = [
     "DESIGN_DEFAULTS", "DESIGN_PARAMETERS", "CAMERA_CHOICES", "MOSAIC_CHOICES", "RENDER_CHOICES",
     "ILLUMINANT_CHOICES", "METRIC_CHOICES", "GAUSSIAN_DEFAULTS", "DesignResult",
     "check_params", "camera_from_params", "processing_from_params", "scene_from_params",
-    "evaluate_design", "measures", "quality_measures", "QUALITY_LABELS", "QUALITY_DIGITS", "check_pinned", "MAX_PINNED", "MAX_NAME", "read_design_file", "result_from_pipeline", "parse_numbers", "parse_tile", "differing_parameters", "parse_sensor", "sensor_text",
+    "evaluate_design", "measures", "quality_measures", "QUALITY_LABELS", "QUALITY_DIGITS", "check_pinned", "MAX_PINNED", "MAX_NAME", "read_design_file", "result_from_pipeline", "parse_numbers", "parse_tile", "applied_parameters", "differing_parameters", "parse_sensor", "sensor_text",
 ]
 
 
@@ -601,9 +601,43 @@ def result_from_pipeline(res, params, name, processing, quality=True):
     return out
 
 
+def applied_parameters(params):
+    """A design's parameters (defaults filled in) with those that do not apply to its camera as None: the
+    Gaussian centres and widths beside a camera other than the Gaussian presets, ``alpha`` beside one other
+    than the mixture, the custom tile beside another mosaic.
+
+    A student who has visited gaussian-4 carries its centres on to every later camera; listed as differing,
+    they read as if the DCS-200 and the cones differed in centres.
+
+    Examples
+    --------
+    >>> p = applied_parameters({"camera": "kodak-dcs200", "gaussian_centers": "460, 520, 580, 640"})
+    >>> p["gaussian_centers"], p["alpha"], p["custom_tile"], p["camera"]
+    (None, None, None, 'kodak-dcs200')
+    >>> applied_parameters({"camera": "gaussian-4", "gaussian_centers": "460, 520, 580, 640"})["gaussian_centers"]
+    '460, 520, 580, 640'
+    """
+    p = dict(DESIGN_DEFAULTS, **params)
+    if p["camera"] not in GAUSSIAN_DEFAULTS:
+        p["gaussian_centers"] = p["gaussian_widths"] = None
+    if p["camera"] != "mixture":
+        p["alpha"] = None
+    if p["mosaic"] != "custom":
+        p["custom_tile"] = None
+    return p
+
+
 def differing_parameters(designs, skip=("wavelength", "metric")):
-    """Names of the parameters whose values differ between the given parameter dicts (in parameter order)."""
-    full = [dict(DESIGN_DEFAULTS, **d) for d in designs]
+    """Names of the parameters whose values differ between the given parameter dicts (in parameter order), among
+    those that apply to each design (:func:`applied_parameters`).
+
+    Examples
+    --------
+    >>> differing_parameters([{"camera": "kodak-dcs200", "gaussian_centers": "460, 520, 580, 640"},
+    ...                       {"camera": "human-cones", "noise_sigma": 2.0}])
+    ['camera', 'noise_sigma']
+    """
+    full = [applied_parameters(d) for d in designs]
     return [k for k in DESIGN_PARAMETERS if k not in skip and len({json.dumps(f[k]) for f in full}) > 1]
 
 

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ParameterError
-from .design import DESIGN_PARAMETERS, QUALITY_DIGITS, QUALITY_LABELS, differing_parameters
+from .design import DESIGN_PARAMETERS, QUALITY_DIGITS, QUALITY_LABELS, applied_parameters, differing_parameters
 from .sweep import SWEEP_PARAMETERS
 
 __all__ = ["report_html", "write_report", "shared_scale", "map_top", "scale_top", "png_data_uri", "colour_map", "quality_cell", "design_colours"]
@@ -177,7 +177,11 @@ def _cell(v):
 
 
 def _value(v):
-    """A parameter's value as one text whatever its type: 0 and 0.0 both "0" (they are one value)."""
+    """A parameter's value as one text whatever its type: 0 and 0.0 both "0" (they are one value); None (a
+    parameter that does not apply to the design's camera, :func:`~camsim_core.review.design.applied_parameters`)
+    a dash."""
+    if v is None:
+        return "\u2014"
     if isinstance(v, (int, float)) and not isinstance(v, bool):
         return html.escape(f"{v:g}")
     return html.escape(v if isinstance(v, str) else json.dumps(v))
@@ -223,7 +227,7 @@ def report_html(results, *, sweep=None, points=None, ab=None, title="camsim desi
         "<th>95th pct dE</th><th>mean S-CIELAB dE</th><th>median S-CIELAB dE</th><th>95th pct S-CIELAB dE</th>"
         + "".join(f"<th>{e(QUALITY_LABELS[k])}</th>" for k in quality)
         + "</tr></thead><tbody>" + "".join(rows) + "</tbody></table>")
-    params = [r.params for r in results]
+    params = [applied_parameters(r.params) for r in results]  # a parameter the camera does not use: a dash
     differ = differing_parameters(params, skip=_SKIP)
     head = "".join(f"<th>{e(r.name)}</th>" for r in results)
 

@@ -176,6 +176,25 @@ def test_report_html_holds_the_numbers_and_only_embedded_images(dcs, cones):
     assert f"camsim {cc.__version__}" in text and "cacaphony290" in text
 
 
+def test_parameters_a_camera_does_not_use_are_not_listed_as_differences(dcs, cones):
+    """Gaussian centres a student left set after visiting gaussian-4 travel with every later design; the
+    comparison listed them as a difference between the DCS-200 and the cones. The engine ignores them for
+    those cameras: the same camera is built with or without them."""
+    import dataclasses
+
+    left = {"gaussian_centers": "460, 520, 580, 640", "gaussian_widths": "30", "alpha": 0.2, "custom_tile": "0 1 2"}
+    assert camera_from_params(dict(DCS, **left)).sensors == camera_from_params(DCS).sensors  # ignored indeed
+    assert differing_parameters([dict(DCS, **left), CONES]) == ["camera", "bits"]
+    g3, g4 = {"camera": "gaussian-3"}, {"camera": "gaussian-4", "gaussian_centers": "460, 520, 580, 640"}
+    assert "gaussian_centers" in differing_parameters([g3, g4, dict(DCS, **left)])
+    leftover = dataclasses.replace(dcs, params=dict(dcs.params, **left))
+    g4_result = dataclasses.replace(cones, name="g4", params=dict(cones.params, **g4))
+    text = report_html([leftover, g4_result])
+    differ = text.split('id="differ"', 1)[1].split("</table>", 1)[0]
+    assert "<th>gaussian_centers</th><td>\u2014</td><td>460, 520, 580, 640</td>" in differ
+    assert "<th>alpha</th>" not in differ and "<th>custom_tile</th>" not in differ
+
+
 def test_shared_colour_scale_covers_every_map():
     a, b = np.full((4, 4), 3.0), np.full((4, 4), 17.0)
     assert shared_scale([a, b]) == 20.0
