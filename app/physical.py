@@ -111,7 +111,8 @@ class PhysicalView(TabView):
         self.table = pn.pane.Markdown("", css_classes=["camsim-physical-table"], width=380)
         self.mtf_curves = CurvesPlot("Diffraction MTF", "Spatial frequency at the sensor (cycles/mm)", "MTF",
                                      frame_width=360, frame_height=220, marks=1)
-        self.ptc_curves = CurvesPlot("Photon transfer (EMVA 1288), 10 exposures", "Mean (DN, black subtracted)",
+        # the title fits over the plot in presentation mode's large text ("..., 10 exposures" was cut there)
+        self.ptc_curves = CurvesPlot("Photon transfer (EMVA 1288)", "Mean of 10 exposures (DN, black subtracted)",
                                      "Temporal variance (DN²)", frame_width=360, frame_height=220,
                                      legend_location="top_left")
         self.mtf = pn.Column(pn.pane.Bokeh(self.mtf_curves.figure), css_classes=["camsim-mtf"], margin=0)

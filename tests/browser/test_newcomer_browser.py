@@ -251,6 +251,16 @@ def test_presentation_mode_makes_every_control_and_plot_text_readable_at_1920(br
 
     eventually(titles_whole, timeout=30)
     page.shot("presentation-1920-optics")
+    page.select("w-camera", "imx174")  # an electron-level camera adds its photon transfer ("10 exposur..." was cut)
+
+    def photon_transfer_whole():
+        assert any(t.startswith("Photon transfer") for t in shown_titles(page)), shown_titles(page)
+        cut = cut_titles(page)
+        assert cut == [], cut
+
+    eventually(photon_transfer_whole, timeout=60)
+    page.shot("presentation-1920-optics-imx174")
+    page.select("w-camera", "kodak-dcs200-ir")
     page.page.locator(".bk-tab").filter(has_text="Camera").first.click()
     # the screenshot once the tab is drawn (taken at the click, it showed the tab still empty)
     _until(lambda: pane_text(page, ".camsim-camera-info").startswith("kodak-dcs200-ir"), "the Camera tab drawn")
