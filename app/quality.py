@@ -21,9 +21,28 @@ from .safe_text import md_text
 from .shown import now, off_the_loop
 from .tab import TabView
 
-__all__ = ["QualityView", "measures_for", "channel_colours", "mtf_figure", "CHANNEL_COLOURS"]
+__all__ = ["QualityView", "hint", "measures_for", "channel_colours", "mtf_figure", "CHANNEL_COLOURS"]
 
 _HINT = "Pick the **slanted-edge** chart for the MTF, **uniform** for the SNR, **macbeth** for the patch dE."
+#: The charts this tab measures, by name in the scene list.
+_MEASURED_CHARTS = {"slanted-edge": "the MTF", "uniform": "the SNR", "macbeth": "the patch dE"}
+
+
+def hint(scene):
+    """What to do for a measure, under a scene that gave none: pick a chart; or, for one of those charts (made
+    too small to measure by its options), pick it again from the scene list, which fits it to the frame.
+
+    Examples
+    --------
+    >>> hint("cacaphony290") == _HINT
+    True
+    >>> print(hint("slanted-edge:size=19"))
+    Picked from the scene list, the **slanted-edge** chart is sized to the camera's frame for the MTF.
+    """
+    base = str(scene).partition(":")[0]
+    if base not in _MEASURED_CHARTS:
+        return _HINT
+    return f"Picked from the scene list, the **{base}** chart is sized to the camera's frame for {_MEASURED_CHARTS[base]}."
 
 
 def measures_for(scene_name, result):
@@ -185,7 +204,7 @@ class QualityView(TabView):
             parts.append(f"**Against the ideal image**: PSNR {s['psnr_db']:.2f} dB · SSIM {s['ssim']:.4f} · "
                          f"mean dE\\*ab {s['mean_delta_e_ab']:.2f}")
         if not any(k in self.report for k in ("mtf", "snr", "color")):
-            parts.append(_HINT)
+            parts.append(hint(self.state.scene))  # not "pick the slanted-edge chart" under the slanted edge
         self.text.object = "\n\n".join(parts)
 
     def _plot_mtf(self, mtf):

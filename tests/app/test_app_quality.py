@@ -103,3 +103,21 @@ def test_the_mtf_plot_follows_each_result_drawn_in_place():
     assert labels == curves, (curves, labels)
     assert view.curves.shown()["luminance"] == "black"
 
+
+
+def test_a_chart_too_small_to_measure_is_not_met_with_pick_that_chart():
+    """Under a slanted edge made too small by its options (512 x 64 samples: 39 x 5 pixels), the tab said why
+    and then "Pick the slanted-edge chart for the MTF", the chart already picked."""
+    from camsim_explorer.quality import QualityView
+    from camsim_explorer.state import ExplorerState
+
+    state = ExplorerState(start=False)
+    state.scene = "slanted-edge"
+    state.set_chart("size=512x64")
+    assert state.result.raw.data.shape == (39, 5)
+    view = QualityView(state)
+    view.update()
+    text = view.text.object
+    assert "Not measured" in text and "at least 16 x 16 pixels" in text
+    assert "Pick the **slanted-edge** chart" not in text
+    assert "Picked from the scene list, the **slanted-edge** chart is sized to the camera's frame" in text
