@@ -884,7 +884,9 @@ def _sync_address(state, names, on_error):
             arm()
             return
         query = {}
-        for name in sorted(pending):
+        # with every synced value the address holds, in JSON: Panel's writer reads the address's other values back
+        # as Python objects and writes them with str(), so a link's pinned designs became a Python repr
+        for name in sorted(pending | (set(location.query_params) & set(names))):
             value = getattr(state, name)
             if value is None:
                 continue

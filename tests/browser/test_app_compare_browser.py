@@ -1,6 +1,8 @@
 """The Compare designs tab in a real browser: pin DCS-200 and human cones, share the comparison by link,
 sweep noise sigma. Numbers are checked against the engine's results for each configuration alone."""
 
+import json
+
 import pytest
 
 from app_helpers import (ARTIFACTS, Page, active_tab, background_share, compare_status, eventually, next_frames,
@@ -135,6 +137,9 @@ def test_a_link_reproduces_the_comparison_and_opens_on_it(browser, compared):
         assert s["designs"] == first["designs"] and s["differ"] == ["camera"]
         second.page.locator(".bk-tab").filter(has_text="Scene").first.click()
         second.page.wait_for_function("() => window.location.search.includes('tab=scene')", timeout=30000)
+        # the address rewritten keeps the designs in JSON, as the docs say (Panel's writer made them a Python repr)
+        pinned = second.page.evaluate("() => new URLSearchParams(window.location.search).get('pinned')")
+        assert [d["name"] for d in json.loads(pinned)] == ["DCS-200", "human cones"], pinned
         assert second.errors() == []
     finally:
         second.close()
