@@ -1222,8 +1222,11 @@ class CompareView:
         self.show_sweep()
         errors = [p for p in self.points if p.error]
         if len(self.points) == self.sweep_total:
-            self.sweep_message.object = (f"Done: {len(self.points)} points. Click a point to load its configuration."
-                                         + (f" {len(errors)} refused: {md_text(errors[0].error)}" if errors else ""))
+            # the points computed, then those refused (a design the parameter does not apply to): "Done: 12
+            # points ... 3 refused" counted the refused among the points
+            self.sweep_message.object = (f"Done: {len(self.points) - len(errors)} points. Click a point to load its "
+                                         "configuration." + (f" {len(errors)} refused: {md_text(errors[0].error)}"
+                                                             if errors else ""))
         self._status()
 
     def show_sweep(self):

@@ -85,13 +85,20 @@ class ExposureMeasures:
 
 
 def _percent(share):
-    """A share as a percentage, never rounded to 0 % or 100 % unless it is."""
+    """A share as a percentage to a tenth (as the explorer's exposure line gives it: "clipped: 70 %" stood beside
+    "69.5 % of pixels are clipped"), never rounded to 0 % or 100 % unless it is.
+
+    Examples
+    --------
+    >>> _percent(0.695), _percent(1.0), _percent(0.0), _percent(0.9995), _percent(0.0004)
+    ('69.5 %', '100 %', '0 %', '> 99.9 %', '< 0.1 %')
+    """
     p = 100.0 * share
     if 0 < p < 0.1:
         return "< 0.1 %"
     if 99.9 < p < 100:
         return "> 99.9 %"
-    return f"{p:.0f} %" if p >= 10 else f"{p:.1f} %"
+    return f"{p:.0f} %" if p in (0.0, 100.0) else f"{p:.1f} %"
 
 
 def _per_pixel(level, image, data):

@@ -131,7 +131,7 @@ def test_clipped_frames_are_flagged(cacaphony, chapter_camera):
     proc = Processing(metrics=("cielab",))
     x2 = pipe.run(cacaphony, chapter_camera.replace(exposure=0.2), proc).exposure
     share = float(np.mean(cs.simulate(cacaphony, chapter_camera.replace(exposure=0.2)).data >= 255))
-    assert x2.clipped == pytest.approx(share) and x2.flags == (f"clipped: {100 * share:.0f} % of pixels at full scale",)
+    assert x2.clipped == pytest.approx(share) and x2.flags == (f"clipped: {100 * share:.1f} % of pixels at full scale",)
     x32 = pipe.run(cacaphony, chapter_camera.replace(exposure=3.2), proc).exposure
     assert any(f.startswith("fully clipped:") for f in x32.flags)
 

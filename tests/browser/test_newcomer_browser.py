@@ -409,6 +409,8 @@ def test_compare_tab_with_three_cameras_fits_1366_lines_up_images_and_sweeps_onl
     assert len(imx) == 2 and all(p["measures"] is None and "electron-level" in p["error"] for p in imx), imx
     _until(lambda: "not swept" in page.text(".camsim-sweep-message") and "imx174" in page.text(".camsim-sweep-message"),
            "the sweep's note that imx174 is not swept")
+    # the points computed, then the refused ("Done: 4 points ... 2 refused" counted the refused among them)
+    assert "Done: 2 points." in page.text(".camsim-sweep-message") and "2 refused" in page.text(".camsim-sweep-message")
 
     def colours():
         legends = page.page.evaluate(_LEGEND_COLOURS)

@@ -16,7 +16,8 @@ MODULES = ["camsim_core.io.guard", "camsim_core.io.matv5", "camsim_core.io.hdf5"
            "camsim_core.scene.load", "camsim_core.camera.load", "camsim_core.simulation.pipeline",
            "camsim_core.simulation.exposure", "camsim_core.demosaicing", "camsim_core.io.raw",
            "camsim_core.rendering", "camsim_core.rendering.ideal", "camsim_core.metrics.sharpness",
-           "camsim_core.datasets.colour_science", "camsim_core.review.design"]
+           "camsim_core.datasets.colour_science", "camsim_core.review.design",
+           "camsim_core.metrics.exposure"]
 
 
 @pytest.mark.parametrize("name", MODULES)
