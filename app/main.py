@@ -18,6 +18,7 @@ import io
 import json
 import logging
 import threading
+import urllib.parse
 import weakref
 from functools import partial
 
@@ -656,7 +657,7 @@ def create_app(scene=None):
             values = state.apply_valid(values)
             if not values:
                 return
-            shown = ", ".join(f"{k} {state_module.short_repr(v, 40)}" for k, v in values.items())
+            shown = ", ".join(f"{k} {_as_typed(pn.state.location.search, k, v)}" for k, v in values.items())
             why = f" ({chart_refused[0][:300]})" if chart_refused else ""
             _tell(state, f"The link held parameters that were refused: {shown}{why}")
 
@@ -857,6 +858,27 @@ class _Template(_compat.DataURIFavicon, pn.template.BootstrapTemplate):
 
 #: The address follows a change this long after it (ms), once its result is shown.
 ADDRESS_DELAY_MS = 300
+
+
+def _as_typed(search, name, value):
+    """A link's value ``name`` as the link writes it (the query ``search``), to quote in a refusal: a number as
+    typed ("seed -3", where Panel's reading made it "-3.0"), any other text quoted, cut to 40 characters.
+
+    Examples
+    --------
+    >>> _as_typed("?seed=-3&camera=%3Cb%3E", "seed", -3.0), _as_typed("?seed=-3&camera=%3Cb%3E", "camera", "<b>")
+    ('-3', "'<b>'")
+    >>> _as_typed("?noise_sigma=", "noise_sigma", 1e9)
+    '1000000000.0'
+    """
+    text = urllib.parse.parse_qs(str(search).lstrip("?"), keep_blank_values=True).get(name, [None])[0]
+    if text is None or text == "":
+        return state_module.short_repr(value, 40)
+    try:
+        float(text)
+    except ValueError:
+        return state_module.short_repr(text, 40)
+    return text if len(text) <= 40 else state_module.short_repr(text, 40)
 
 
 def _sync_address(state, names, on_error):
