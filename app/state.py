@@ -211,6 +211,17 @@ def short_repr(value, limit=60):
     return text if len(text) <= limit else f"{text[:limit]}... ({len(str(value))} characters)"
 
 
+#: Checks of the text parameters the engine reads, each on its own (ParameterError): a link's unreadable text is
+#: refused with the link's other bad values, not accepted and then refused with the whole link by the engine.
+_TEXT_CHECKS = {
+    "gaussian_centers": lambda text: parse_numbers(text, "gaussian_centers"),
+    "gaussian_widths": lambda text: parse_numbers(text, "gaussian_widths"),
+    "custom_tile": lambda text: parse_tile(text),
+    "sensor": lambda text: _design.parse_sensor(text, max_text=LIMITS.max_text),
+    "viewing": lambda text: parse_viewing(text),
+}
+
+
 class _NotFinite:
     """What the parameters file's reader makes of NaN, Infinity and numbers beyond a float's range or
     :func:`int`'s digit limit: refused by :meth:`ExplorerState.from_json`, naming the entry."""
@@ -998,6 +1009,9 @@ class ExplorerState(param.Parameterized):
         with param.discard_events(self):  # each checked by its own parameter; the watchers told once, below
             for name, value in values.items():
                 try:
+                    check = _TEXT_CHECKS.get(name)
+                    if check is not None and isinstance(value, str):
+                        check(value)  # a text the engine reads (numbers, a tile, sensor fields, a viewing)
                     setattr(self, name, value)
                 except Exception:
                     refused[name] = value

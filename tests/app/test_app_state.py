@@ -750,6 +750,10 @@ def test_one_refused_value_of_a_link_leaves_the_others_applied_and_computed(stat
     # the camera and its sensor in one link: one change, so the camera does not clear the sensor sheet after it
     assert state.apply_valid({"sensor": "", "camera": "gaussian-3", "bits": "eight"}) == {"bits": "eight"}
     assert state.shown["camera"] == "gaussian-3"
+    # a text the engine cannot read is refused with the others, not accepted and then refused with the whole link
+    texts = {"gaussian_centers": "abc", "custom_tile": "x", "viewing": "far", "sensor": "well=1", "noise_sigma": 3.0}
+    assert set(state.apply_valid(texts)) == {"gaussian_centers", "custom_tile", "viewing", "sensor"}
+    assert state.shown["noise_sigma"] == 3.0 and state.message == ""
 
 
 def test_a_custom_tile_given_with_the_custom_mosaic_is_the_users(state):
