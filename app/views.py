@@ -1202,7 +1202,7 @@ class SceneView(TabView):
         self._band_label = CustomJSTickFormatter(code=_BAND_LABEL_JS, args={"wavelengths": self._wavelengths})
         self.wavelength = pn.widgets.IntSlider(label="Wavelength (nm)", start=0, end=1, value=0,
                                                format=self._band_label, css_classes=["w-wavelength"], width=280)
-        self._scene = None
+        self._scene, self._scene_name = None, None
         super().__init__(state, when_shown, **params)
         self._layout = pn.Column(pn.Row(self.wavelength, self.clear),
                                  pn.Row(self.rgb_pane, self.plane_pane, sizing_mode="stretch_width"),
@@ -1214,7 +1214,8 @@ class SceneView(TabView):
     def _wavelength_chosen(self):
         self.state.wavelength = self._wavelengths[min(self.wavelength.value, len(self._wavelengths) - 1)]
 
-    @param.depends("state.scene", "state.wavelength", watch=True)
+    # the light level too: the scene shown is the scene under it (the tab kept the old radiance, spectra and facts)
+    @param.depends("state.scene", "state.light", "state.wavelength", watch=True)
     def _on_change(self):
         self._update_when_shown()
 
@@ -1238,7 +1239,10 @@ class SceneView(TabView):
             self.wavelength.value = k
         h, w = scene.data.shape[:2]
         if scene is not self._scene:
-            self._scene = scene
+            # the same scene under another light level: the clicked spectra stay, read from it
+            relit = (self._scene is not None and self.state.scene == self._scene_name and self._scene.data.shape ==
+                     scene.data.shape and np.array_equal(self._scene.wavelengths, scene.wavelengths))
+            self._scene, self._scene_name = scene, self.state.scene
             if (h, w) != self.shape:
                 self.shape = (h, w)
                 for fig in self.figures.values():
@@ -1251,7 +1255,11 @@ class SceneView(TabView):
             rows = [f"| {md_text(label)} | {md_text(text)} |" for label, text in scene_facts(d)]
             self.meta.object = "| | |\n|---|---|\n" + "\n".join(rows)
             self._extent.data = dict(x0=[wls[0]], x1=[wls[-1]], y=[0.0])
-            self.reset_spectra()
+            if relit:
+                self.spectra = [(scene, *where) for _, *where in self.spectra]
+                self._draw()
+            else:
+                self.reset_spectra()
         plane = np.asarray(scene.data[:, :, k], np.float32)
         top = float(np.percentile(plane, 99.5)) or float(plane.max()) or 1.0
         self.plane_bar.set(0.0, top)
