@@ -138,7 +138,9 @@ class ExperimentsView:
             for method, curves in sensors_curves(records).items():
                 self.curves[method].update(curves, title=f"{method} rendering")
             self.plot_row.visible = True
-            self.message.object = f"Done: {len(records)} configurations (mean S-CIELAB dE against the ideal image)."
+            n = len(records)
+            self.message.object = (f"Done: {n} configuration{'s' if n != 1 else ''} (mean S-CIELAB dE against the "
+                                   "ideal image).")
         self.button.disabled = False
 
     def panel(self):
