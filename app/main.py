@@ -35,6 +35,7 @@ from .compat.number_box import FloatInput  # reads any number the browser sends
 from . import state as state_module
 from .body_class import BodyClass
 from .compare import compare_tab
+from .history import HistoryFollower
 from .number_slider import NumberSlider
 from .physical import SensorControls
 from .quality import QualityView
@@ -692,6 +693,8 @@ def create_app(scene=None):
     # the page's class for presentation mode, set from the server (a jscallback would make Panel look for links
     # at every tab switch: see camsim_explorer.body_class)
     present_class = BodyClass(css_class="camsim-present", margin=0, width=0, height=0)
+    # back and forward show the page of the address they go to (Panel's Location does not follow them)
+    history = HistoryFollower(margin=0, width=0, height=0)
 
     doc = pn.state.curdoc
 
@@ -738,7 +741,7 @@ def create_app(scene=None):
     template = _Template(
         title="camsim explorer: a camera design on a hyperspectral scene",
         # the two buttons one above the other: side by side, presentation mode's large text put one over the other
-        sidebar=[present, present_class, start_over, *controls],
+        sidebar=[present, present_class, history, start_over, *controls],
         main=[notice, body, alert],
         sidebar_width=330,
         favicon=FAVICON,
@@ -885,7 +888,8 @@ def _sync_address(state, names, on_error):
     """The page's address holds the parameters ``names``, so that a link reproduces the page.
 
     Panel's ``Location.sync`` reads them from the address at start (and on the
-    browser's back and forward), and writes every change into the address at
+    browser's back and forward: :class:`~camsim_explorer.history.HistoryFollower` reloads the page then),
+    and writes every change into the address at
     once. Here the writing waits until the change's result is shown and
     ``ADDRESS_DELAY_MS`` have passed, and a burst of changes is written once:
     each new address is a history entry and navigation bookkeeping in the

@@ -171,7 +171,12 @@ class Page:
         from playwright.sync_api import Error as PlaywrightError
 
         deadline = time.monotonic() + timeout
-        text = self.page.evaluate(STATUS_JS)
+        try:
+            text = self.page.evaluate(STATUS_JS)
+        except PlaywrightError as exc:  # the page is navigating (a link, a reload, back or forward): watch anew
+            if "context was destroyed" not in str(exc) and "navigat" not in str(exc):
+                raise
+            text = None
         while True:
             try:
                 s = json.loads(text)

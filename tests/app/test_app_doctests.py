@@ -9,7 +9,7 @@ MODULES = ["camsim_explorer.quality", "camsim_explorer.physical", "camsim_explor
            "camsim_explorer.loop_watch", "camsim_explorer.tab", "camsim_explorer.shown", "camsim_explorer.collector",
            "camsim_explorer.compare", "camsim_explorer.curves", "camsim_explorer.experiments", "camsim_explorer.state",
            "camsim_explorer.body_class", "camsim_explorer.serve", "camsim_explorer.compat.early_head",
-           "camsim_explorer.main"]
+           "camsim_explorer.main", "camsim_explorer.history"]
 
 
 @pytest.mark.parametrize("name", MODULES)

@@ -437,6 +437,52 @@ def test_save_and_share_downloads_what_the_page_shows_and_loads_parameters(page,
     assert page.params()["noise_sigma"] == 3.0
 
 
+def test_back_and_forward_show_the_page_of_the_address_they_go_to(page):
+    """Panel's Location writes each design into the address but does not follow the browser's history: back and
+    forward changed the address and left the page (design, dE, tab) as it was. Each now shows its address's
+    page, as a link does."""
+    from app_helpers import wait_until
+
+    def address():  # read in the page (Playwright's own URL may lag a same-document move)
+        return page.page.evaluate("() => window.location.href")
+
+    def following():  # the page's history follower has rendered (its script loads after the status is shown)
+        wait_until(lambda: _evaluate_or_none(page, "() => !!window.__camsimHistory"), what="the history follower")
+
+    first = page.wait_for(lambda s: not s.get("computing"))
+    following()
+    page.select("w-camera", "human-cones")
+    cones = page.wait_for(lambda s: s["params"]["camera"] == "human-cones" and not s.get("computing"))
+    wait_until(lambda: "camera=human-cones" in address(), what="the camera in the address")
+    page.type_number("w-noise", 2)
+    page.wait_for(lambda s: s["params"]["noise_sigma"] == 2 and not s.get("computing"))
+    wait_until(lambda: "noise_sigma=2" in address(), what="the noise in the address")
+    page.page.go_back()
+    back = page.wait_for(lambda s: s["params"]["camera"] == "human-cones" and s["params"]["noise_sigma"] == 0
+                         and not s.get("computing"))
+    assert back["mean_de"] == cones["mean_de"] and "noise_sigma=2" not in address()
+    following()  # the page reloaded
+    page.page.go_back()
+    start = page.wait_for(lambda s: s["params"]["camera"] == "kodak-dcs200-ir" and not s.get("computing"))
+    assert start["mean_de"] == first["mean_de"] and start["raw_hash"] == first["raw_hash"]
+    following()
+    page.page.go_forward()
+    page.wait_for(lambda s: s["params"]["camera"] == "human-cones" and s["params"]["noise_sigma"] == 0
+                  and not s.get("computing"))
+    wait_until(lambda: "camera=human-cones" in address(), what="forward's address")
+    assert page.errors() == []
+
+
+def _evaluate_or_none(page, script):
+    """``page.page.evaluate(script)``, or None while the page navigates."""
+    from playwright.sync_api import Error as PlaywrightError
+
+    try:
+        return page.page.evaluate(script)
+    except PlaywrightError:
+        return None
+
+
 def test_start_over_gives_back_a_new_pages_design_and_keeps_the_pinned_ones(shared_page):
     """Start over: the design, the images, the tab and the address of a page just opened (the status the shared
     page had when it was opened, new, is the reference); the pinned designs stay."""
