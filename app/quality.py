@@ -21,11 +21,36 @@ from .safe_text import md_text
 from .shown import now, off_the_loop
 from .tab import TabView
 
-__all__ = ["QualityView", "hint", "measures_for", "channel_colours", "mtf_figure", "CHANNEL_COLOURS"]
+__all__ = ["QualityView", "exposure_caveat", "hint", "measures_for", "channel_colours", "mtf_figure", "CHANNEL_COLOURS"]
 
 _HINT = "Pick the **slanted-edge** chart for the MTF, **uniform** for the SNR, **macbeth** for the patch dE."
 #: The charts this tab measures, by name in the scene list.
 _MEASURED_CHARTS = {"slanted-edge": "the MTF", "uniform": "the SNR", "macbeth": "the patch dE"}
+
+
+def exposure_caveat(res, report):
+    """A warning above measures made on a badly exposed frame (the engine's exposure flags), or "".
+
+    A clipped edge's MTF50 read 0.74 cycles/pixel where the unclipped frame's was 0.38 (diffraction theory:
+    0.40), and an edge of one or two digital units 0.70: numbers of the exposure, not of the camera, which the
+    Results tab flagged but this tab showed plainly.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> res = SimpleNamespace(exposure=SimpleNamespace(flags=("clipped: 50.0 % of pixels at full scale",)))
+    >>> print(exposure_caveat(res, {"mtf": {}}))
+    ⚠ **Exposure**: clipped...pixels at full scale. The measures below describe this exposure, not the camera: ...
+    >>> exposure_caveat(SimpleNamespace(exposure=SimpleNamespace(flags=())), {"mtf": {}})
+    ''
+    """
+    measured = getattr(res, "exposure", None)
+    flags = tuple(getattr(measured, "flags", ()) or ())
+    if not flags or not any(k in report for k in ("mtf", "snr", "color", "similarity")):
+        return ""
+    return (f"⚠ **Exposure**: {md_text('; '.join(flags))}. The measures below describe this exposure, not the camera: "
+            "a clipped edge reads sharper, a dark one is quantization noise (change the exposure, or pick the chart "
+            "again for its own).")
 
 
 def hint(scene):
@@ -146,10 +171,11 @@ class QualityView(TabView):
     def _measure(self, what, res):
         """``(report, problem)``: the engine's measures ``what`` of ``res``, or why they were not made."""
         try:
-            return measure_images(what, raw=res.raw, demosaiced=res.demosaiced, rendered=res.rendered,
-                                  ideal=res.ideal, monitor=self.state.monitor), ""
+            report = measure_images(what, raw=res.raw, demosaiced=res.demosaiced, rendered=res.rendered,
+                                    ideal=res.ideal, monitor=self.state.monitor, camera=getattr(res, "camera", None))
         except CamsimError as exc:
             return {}, f"**Not measured**: {md_text(exc)}"
+        return report, exposure_caveat(res, report)
 
     def prepare(self, res):
         """Measure a new result while the tab is shown (in the computing thread: ``ExplorerState.preparers``).

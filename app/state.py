@@ -54,7 +54,7 @@ from camsim_core.metrics.viewing import parse_viewing
 __all__ = ["ExplorerState", "Runner", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_PARAMETERS", "COMPARE_PARAMETERS",
            "VIEW_PARAMETERS", "PAGE_PARAMETERS", "TAB_NAMES",
            "parse_tile", "parse_numbers", "load_upload", "ServerLimits", "LIMITS", "json_depth", "exposure_warnings",
-           "mean_level"]
+           "mean_level", "full_scale"]
 
 #: Bits offered; 0 means unquantized.
 BITS_CHOICES = {"8": 8, "10": 10, "12": 12, "16": 16, "unquantized": 0}
@@ -1223,27 +1223,57 @@ class Runner:
                 self._deliver(job, outcome)
 
 
+def full_scale(raw, camera=None):
+    """The value of a full pixel of ``raw`` (digital units, its pedestal included): the ADC's full scale when
+    quantized; unquantized, the level of ``camera``'s full well for an electron-level sensor (the value it
+    saturates at, :func:`~camsim_core.metrics.exposure.saturation_level` above the black level), else 255 (the
+    engine's display convention for the chapter's cameras). With 255 for every unquantized raw, imx174 at 0
+    bits (its full well at about 4095) read "35.5 % of pixels are clipped" on a frame whose brightest pixel was
+    341, and a mean level of 934 % of full scale.
+
+    Examples
+    --------
+    >>> import camsim_core as cc
+    >>> scene, cam = cc.load_scene("uniform"), cc.load_camera("imx174").replace(bits=None, exposure=0.05)
+    >>> raw = cc.simulate(scene, cam, seed=0)
+    >>> full_scale(raw), round(full_scale(raw, cam))
+    (255.0, 4092)
+    """
+    if raw.full_scale:
+        return float(raw.full_scale)
+    from camsim_core.metrics.exposure import saturation_level
+
+    well = saturation_level(camera)
+    if well is None:
+        return 255.0
+    return float(np.max(np.asarray(raw.black_level, float))) + float(well)
+
+
 def exposure_warnings(raw, camera=None):
     """Shares of clipped pixels (at full scale, or at ``camera``'s full well when its sensor saturates below
-    full scale) and of pixels in the lowest 2 % of the digital range.
+    full scale) and of pixels in the lowest 2 % of the digital range (:func:`full_scale`).
 
     ``raw`` is a CameraImage in digital units; returns ``(clipped, dark)`` as fractions.
-    An unquantized image is measured against 255 (the display convention of the engine).
     """
     from camsim_core.metrics.exposure import exposure_measures
 
     data = np.asarray(raw.data, float)
-    full = float(raw.full_scale or 255.0)
-    clipped = float(np.mean(data >= full - 0.5)) if raw.quantized else float(np.mean(data >= full))
+    full = full_scale(raw, camera)
+    if raw.quantized:
+        clipped = float(np.mean(data >= full - 0.5))
+    elif raw.full_scale is None and full != 255.0:
+        clipped = 0.0  # the full well's pixels are counted by the engine, below
+    else:
+        clipped = float(np.mean(data >= full))
     if camera is not None:
         clipped = max(clipped, float(exposure_measures(raw, camera).clipped))
     dark = float(np.mean(data <= 0.02 * full))
     return clipped, dark
 
 
-def mean_level(raw):
-    """The raw image's mean value as a fraction of its full scale (255 for an unquantized image)."""
-    return float(np.mean(np.asarray(raw.data, float))) / float(raw.full_scale or 255.0)
+def mean_level(raw, camera=None):
+    """The raw image's mean value as a fraction of its full scale (:func:`full_scale`)."""
+    return float(np.mean(np.asarray(raw.data, float))) / full_scale(raw, camera)
 
 
 _LABELS = {"noise_sigma": "noise sigma", "f_stop": "f-stop", "exposure": "exposure (s)", "distance": "distance (m)",

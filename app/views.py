@@ -902,7 +902,7 @@ class ResultsView:
             self._memo("exposure", res.raw, lambda raw: exposure_warnings(raw, getattr(res, "camera", None)))
             self._memo("flags", res.raw, lambda raw: _exposure_flags(res))
             self._memo("rendered_y", res.xyz, _mean_y)
-            self._memo("level", res.raw, mean_level)
+            self._memo("level", res.raw, lambda raw: mean_level(raw, getattr(res, "camera", None)))
             self._memo("raw_hash", res.raw, digest)
             self._memo("rendered_hash", res.rendered, digest)
 
@@ -1039,7 +1039,7 @@ class ResultsView:
         if dark > 0.25:
             notes.append(f"⚠ {100 * dark:.0f} % of pixels are in the lowest 2 % of the digital range: "
                          "under-exposed (try Auto exposure)")
-        level = self._memo("level", res.raw, mean_level)
+        level = self._memo("level", res.raw, lambda raw: mean_level(raw, getattr(res, "camera", None)))
         self.warnings.object = "<p>" + (" · ".join(notes) or
                                         f"Clipped {100 * clipped:.1f} % · in the lowest 2 % of levels "
                                         f"{100 * dark:.1f} %") + f" · mean level {100 * level:.0f} % of full scale</p>"

@@ -24,7 +24,10 @@ when all are):
 * ``black``: the share at or below the black level (the pedestal, a half
   step above counting when quantized): no light recorded;
 * ``signal``: the mean value above the pedestal as a fraction of the range
-  above it (255 without a bit depth, the engine's display convention).
+  above it (without a bit depth: up to the full well's level for an
+  electron-level sensor given with its camera, else 255, the engine's
+  display convention; with 255, imx174 unquantized at 0.05 s read 89.5 % of
+  its range, where its full well puts it at 5.6 %).
 
 Flags: a *black frame* when at least half the pixels are at the black
 level; *under-exposed* when the mean signal is below 2 % of the range;
@@ -170,7 +173,10 @@ def exposure_measures(raw, camera=None):
         at_black, clipped = at_black.all(axis=2), clipped.any(axis=2)
     elif data.ndim == 3:  # tiers of a mosaic: one pixel, several samples
         at_black, clipped = at_black.all(axis=2), clipped.any(axis=2)
-    top = _per_pixel((full if full is not None else 255.0) - np.asarray(raw.black_level, float), raw, data)
+    if full is None and well is not None:  # unquantized, an electron-level sensor: its range ends at the full well
+        top = np.asarray(float(well))
+    else:
+        top = _per_pixel((full if full is not None else 255.0) - np.asarray(raw.black_level, float), raw, data)
     if np.ndim(black) == 0 and np.ndim(top) == 0:  # one pedestal: no full-size temporary
         signal = (float(np.mean(data, dtype=np.float64)) - float(black)) / max(float(top), 1e-12)
     else:

@@ -57,14 +57,16 @@ def _central(shape, fraction=0.5):
     return (dy, h - dy, dx, w - dx)
 
 
-def measure_images(what, *, raw, demosaiced=None, rendered=None, ideal=None, monitor="simtoolbox-test", patches="layout"):
+def measure_images(what, *, raw, demosaiced=None, rendered=None, ideal=None, monitor="simtoolbox-test", patches="layout",
+                   camera=None):
     """The measures ``what`` on images already simulated and processed (the explorer's pipeline result).
 
     ``raw``: the camera image (SNR); ``demosaiced``: full sensor planes (MTF;
     ``raw`` itself when not mosaiced); ``rendered`` and ``ideal``: rendered
     monitor images (colour, similarity); ``patches``: where the chart's
     patches come from ("layout" of the chart generator, or "detect"ed in the
-    ideal image, see :func:`~camsim_core.metrics.chart.macbeth_delta_e`). Returns the JSON-ready dict of
+    ideal image, see :func:`~camsim_core.metrics.chart.macbeth_delta_e`); ``camera``: the camera that made ``raw``
+    (an unquantized electron-level sensor's full well marks a saturated SNR). Returns the JSON-ready dict of
     :func:`quality_report` without the scene and camera names.
     """
     from ..monitor import load_monitor
@@ -91,7 +93,7 @@ def measure_images(what, *, raw, demosaiced=None, rendered=None, ideal=None, mon
                           "mtf": v["mtf"].tolist()} for k, v in res.items()}
     if "snr" in what:
         roi = _central(raw.data.shape)
-        out["snr"] = {"roi": list(roi), "channels": region_snr(raw, roi)}
+        out["snr"] = {"roi": list(roi), "channels": region_snr(raw, roi, camera=camera)}
     if "color" in what:
         d = macbeth_delta_e(rendered, ideal, mon, patches=patches)
         out["color"] = {"method": "CIE 2000", "per_patch": d["per_patch"].tolist(), "mean": d["mean"], "max": d["max"],

@@ -58,7 +58,7 @@ def _roi(shape, roi):
     return (slice(y0, y1), slice(x0, x1))
 
 
-def region_snr(image, roi=None):
+def region_snr(image, roi=None, camera=None):
     """SNR of a uniform region of a camera image (or an (H, W) / (H, W, K) array), per channel and luminance.
 
     Parameters
@@ -68,6 +68,11 @@ def region_snr(image, roi=None):
         demosaiced or full-colour image, or an array.
     roi : (y0, y1, x0, x1), optional
         The uniform region, pixels; default the whole image.
+    camera : Camera, optional
+        The camera that made ``image``: an image without a bit depth from an
+        electron-level sensor saturates at its full well
+        (:func:`~camsim_core.metrics.exposure.saturation_level`), which no ADC
+        marks (imx174 at 0 bits read 72.8 dB at its full well, unmarked).
 
     Returns
     -------
@@ -92,6 +97,10 @@ def region_snr(image, roi=None):
         image = subtract_black_level(image)
     # where the raw clipped, in the units of the (pedestal-free) data: one value, or one per sensor class
     full = saturation_level(image) if hasattr(image, "full_scale") and hasattr(image, "quantized") else None
+    if full is None and camera is not None:
+        from .exposure import saturation_level as full_well_level
+
+        full = full_well_level(camera)  # above the black level, as the data now are
     data = np.asarray(getattr(image, "data", image), float)
     if data.ndim not in (2, 3):
         raise ParameterError("image", f"expected (H, W) or (H, W, K) data, got shape {data.shape}")

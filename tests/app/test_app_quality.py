@@ -121,3 +121,39 @@ def test_a_chart_too_small_to_measure_is_not_met_with_pick_that_chart():
     assert "Not measured" in text and "at least 16 x 16 pixels" in text
     assert "Pick the **slanted-edge** chart" not in text
     assert "Picked from the scene list, the **slanted-edge** chart is sized to the camera's frame" in text
+
+
+def test_measures_of_a_badly_exposed_frame_carry_the_exposure_flags():
+    """A clipped slanted edge's MTF50 read 0.74 cycles/pixel against 0.39 unclipped (diffraction and the pixel:
+    0.40), shown plainly on this tab while the Results tab flagged the frame."""
+    from camsim_explorer.quality import QualityView
+    from camsim_explorer.state import ExplorerState
+
+    state = ExplorerState(start=False)
+    state.param.update(camera="human-cones", optics="diffraction", f_stop=11)
+    state.scene = "slanted-edge"  # exposed for itself
+    view = QualityView(state)
+    view.update()
+    assert "Exposure" not in view.text.object and state.result.exposure.flags == ()
+    assert view.report["mtf"]["luminance"]["mtf50"] == pytest.approx(0.398, abs=0.02)  # theory x pixel, 0.398
+    state.exposure = 2 * state.exposure
+    view.update()
+    assert state.result.exposure.clipped > 0.3
+    assert view.text.object.startswith("⚠ **Exposure**: clipped") and "not the camera" in view.text.object
+
+
+def test_an_unquantized_electron_level_snr_at_the_full_well_is_marked_saturated():
+    """imx174 at 0 bits on the uniform field, 1 s: its green pixels at the full well read 72.8 dB, unmarked (the
+    mark came from the ADC's full scale, which an unquantized raw has none of); at 12 bits the same is marked."""
+    from camsim_explorer.quality import QualityView
+    from camsim_explorer.state import ExplorerState
+
+    state = ExplorerState(start=False)
+    state.param.update(camera="imx174", bits=0)
+    state.scene = "uniform"
+    state.exposure = 1.0
+    view = QualityView(state)
+    view.update()
+    green = view.report["snr"]["channels"]["G"]
+    assert green["saturated"] and green["mean"] > 4000
+    assert "(saturated)" in view.text.object

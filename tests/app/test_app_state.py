@@ -779,3 +779,27 @@ def test_a_custom_tile_that_misses_a_sensor_of_a_new_camera_gives_way_to_its_mos
     state.param.update(mosaic="custom", custom_tile="0 1 2")
     state.camera = "kodak-dcs200"  # a tile that still fits (three sensors) is kept
     assert state.mosaic == "custom" and state.shown["custom_tile"] == "0 1 2"
+
+
+def test_an_unquantized_electron_level_raw_is_measured_against_its_full_well():
+    """imx174 at 0 bits, 0.05 s on the uniform field (brightest pixel 341 of a full well at about 4092): the
+    Results line read "35.5 % of pixels are clipped" and, at 0.52 s, a mean level of 934 % of full scale (255
+    taken as full scale); the engine's signal read 89.5 % of the range."""
+    import camsim_core as cc
+    from camsim_core.metrics.exposure import saturation_level
+    from camsim_explorer.state import exposure_warnings, full_scale, mean_level
+
+    state = ExplorerState(start=False)
+    state.param.update(camera="imx174", bits=0)
+    state.scene = "uniform"
+    state.exposure = 0.05
+    raw, cam = state.result.raw, state.result.camera
+    assert raw.full_scale is None and float(raw.data.max()) < 400
+    well = float(np.max(raw.black_level)) + saturation_level(cam)
+    assert full_scale(raw, cam) == pytest.approx(well) and well > 4000
+    assert exposure_warnings(raw, cam)[0] == 0.0
+    assert mean_level(raw, cam) == pytest.approx(float(np.mean(raw.data)) / well)
+    assert state.result.exposure.signal == pytest.approx((float(np.mean(raw.data)) - float(np.mean(raw.black_level)))
+                                                         / saturation_level(cam), rel=1e-3)
+    dcs = cc.simulate(cc.load_scene("cacaphony290"), cc.load_camera("kodak-dcs200-ir").replace(bits=None))
+    assert full_scale(dcs) == 255.0  # the chapter's cameras keep the display convention
