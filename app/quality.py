@@ -118,7 +118,8 @@ def _snr_table(snr):
     rows = [f"| {k} | {v['mean']:.2f} | {v['sigma']:.3f} | {v['snr_db']:.2f}{' (saturated)' if v['saturated'] else ''} |"
             for k, v in snr["channels"].items()]
     y0, y1, x0, x1 = snr["roi"]
-    return (f"**SNR** of the raw on the central region (rows {y0}-{y1}, columns {x0}-{x1})\n\n"
+    shading = ", its shading (lens fall-off) removed" if snr.get("detrended") else ""
+    return (f"**SNR** of the raw on the central region (rows {y0}-{y1}, columns {x0}-{x1}){shading}\n\n"
             "| channel | mean (DU) | sigma (DU) | SNR (dB) |\n|---|---|---|---|\n" + "\n".join(rows))
 
 

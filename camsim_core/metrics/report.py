@@ -93,7 +93,8 @@ def measure_images(what, *, raw, demosaiced=None, rendered=None, ideal=None, mon
                           "mtf": v["mtf"].tolist()} for k, v in res.items()}
     if "snr" in what:
         roi = _central(raw.data.shape)
-        out["snr"] = {"roi": list(roi), "channels": region_snr(raw, roi, camera=camera)}
+        # the field's low-frequency shading (lens fall-off) removed before the noise is measured (ISO 15739)
+        out["snr"] = {"roi": list(roi), "channels": region_snr(raw, roi, camera=camera, detrend=True), "detrended": True}
     if "color" in what:
         d = macbeth_delta_e(rendered, ideal, mon, patches=patches)
         out["color"] = {"method": "CIE 2000", "per_patch": d["per_patch"].tolist(), "mean": d["mean"], "max": d["max"],

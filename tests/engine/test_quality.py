@@ -136,3 +136,21 @@ def test_psnr_of_identical_images_is_infinite_without_a_warning(rng):
         warnings.simplefilter("error")
         assert psnr(ref.copy(), ref, data_range=255) == np.inf
         assert np.isfinite(psnr(ref + 1, ref, data_range=255))
+
+
+def test_region_snr_detrended_measures_the_noise_about_the_fields_shading():
+    """A field with an 8 % quadratic fall-off and Gaussian noise of sigma 2: detrended, the sigma is the noise's
+    (to its sampling error) and the mean is the field's; without, the fall-off counts as noise."""
+    from camsim_core.metrics.snr import region_snr
+
+    rng = np.random.default_rng(7)
+    h, w = 200, 300
+    y, x = np.mgrid[0:h, 0:w]
+    shading = 1.0 - 0.08 * (((x - w / 2) / (w / 2)) ** 2 + ((y - h / 2) / (h / 2)) ** 2) / 2
+    field = 1000.0 * shading + rng.normal(0.0, 2.0, (h, w))
+    flat = region_snr(field, detrend=True)["0"]
+    raw = region_snr(field)["0"]
+    assert flat["sigma"] == pytest.approx(2.0, rel=0.02) and raw["sigma"] > 5 * flat["sigma"]
+    assert flat["mean"] == pytest.approx(raw["mean"], rel=1e-12)
+    tiny = np.array([[9.0, 10.0], [11.0, 10.0]])  # too few samples for the surface: measured as it is
+    assert region_snr(tiny, detrend=True)["0"] == region_snr(tiny)["0"]
