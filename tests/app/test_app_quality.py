@@ -181,3 +181,15 @@ def test_the_snr_of_an_electron_level_camera_is_its_noise_not_the_lens_fall_off(
                         + 1 / 12)
         assert measured["sigma"] == pytest.approx(sigma, rel=0.03), (name, measured, sigma)
     assert "shading (lens fall-off) removed" in view.text.object
+
+
+def test_the_experiments_alpha_axis_is_the_mixtures_range_whatever_was_run():
+    """One alpha run (1, or 0.0001) drew an axis from 0 to 2, or -1 to 1: alphas no mixture has."""
+    from camsim_explorer.experiments import ExperimentsView
+
+    view = ExperimentsView(run=None)  # shown a run's records directly
+    view._show([{"alpha": 1.0, "sigma": 0.0, "baseline": 3.0, "illuminant": 2.0}], None)
+    for plot in view.curves.values():
+        assert (plot.figure.x_range.start, plot.figure.x_range.end) == (-0.05, 1.05)
+        assert plot.figure.title.text.endswith("rendering")
+    assert view.message.object.startswith("Done: 1 configuration (")
