@@ -84,7 +84,9 @@ def _image_report(args, what):
         out["mtf"] = {k: {"mtf50": v["mtf50"], "mtf_nyquist": v["mtf_nyquist"], "frequency": v["frequency"].tolist(),
                           "mtf": v["mtf"].tolist()} for k, v in edge_mtf(src).items()}
     if "snr" in what:
-        out["snr"] = {"roi": list(roi) if roi else None, "channels": region_snr(image, roi)}
+        # the field's shading removed, as for a simulated camera (metrics.report.measure_images) and in the explorer
+        out["snr"] = {"roi": list(roi) if roi else None, "channels": region_snr(image, roi, detrend=True),
+                      "detrended": True}
     bad = sorted(set(what) - {"mtf", "snr"})
     if bad:
         raise ParameterError("--what", f"{', '.join(bad)} needs a simulated camera (--scene), not an --image")

@@ -52,6 +52,29 @@ def test_cli_measure_mtf_of_a_dng_file(tmp_path, capsys):
     assert rep["mtf"]["G"]["mtf50"] == pytest.approx(direct["mtf"]["G"]["mtf50"], rel=1e-9)
 
 
+def test_cli_measure_snr_of_a_file_is_measured_about_its_shading(tmp_path, capsys):
+    """The SNR of a raw file is measured as the explorer and ``camsim measure --scene`` measure it, about the
+    field's shading (``region_snr(detrend=True)``, checked against a synthetic fall-off in test_quality.py): the
+    file's numbers are those of the same raw measured so in the process, not those with the shading counted."""
+    from camsim_core.metrics.snr import region_snr
+
+    dng = tmp_path / "flat.dng"
+    camera = cs.load_camera("imx174").replace(bits=12)
+    scene = cs.load_scene("uniform:size=512")
+    exposure = cs.auto_exposure(scene, camera)
+    assert main(["simulate", "--scene", "uniform:size=512", "--camera", "imx174", "--bits", "12",
+                 "--exposure", repr(exposure), "--out", str(dng)]) == 0
+    out = tmp_path / "snr.json"
+    assert main(["measure", "--image", str(dng), "--what", "snr", "--json", str(out)]) == 0
+    rep = json.loads(out.read_text())["snr"]
+    assert rep["detrended"] is True
+    raw = cs.simulate(scene, camera.replace(exposure=exposure))
+    flat, shaded = region_snr(raw, detrend=True), region_snr(raw)
+    for name in ("R", "G", "B"):
+        assert rep["channels"][name]["sigma"] == pytest.approx(flat[name]["sigma"], rel=1e-9)
+        assert flat[name]["sigma"] < shaded[name]["sigma"]  # the fall-off, however small here, left out
+
+
 def test_cli_measure_bad_input(tmp_path, capsys):
     assert main(["measure", "--what", "sharpness"]) == 2
     assert "unknown measure" in capsys.readouterr().err
