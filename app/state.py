@@ -754,11 +754,17 @@ class ExplorerState(param.Parameterized):
         if any(ord(c) < 32 or ord(c) == 127 for c in name):  # a NUL makes every file call raise ValueError
             return None, f"Upload refused: the file name {short_repr(name)} holds a control character"
         try:
-            return load_upload(filename, content), None
+            scene = load_upload(filename, content)
         except CamsimError as exc:
             return None, f"Upload refused: {exc}"
         except Exception as exc:  # never a server path or a traceback in the page
             return None, f"Upload refused: {Path(name).name}: could not be read ({type(exc).__name__})"
+        bands = int(np.asarray(scene.wavelengths).size)
+        if bands < MIN_UPLOAD_BANDS:  # said in these words, not as the singular matrix the rendering meets
+            return None, (f"Upload refused: {Path(name).name}: {bands} wavelength band{'s' if bands != 1 else ''}; "
+                          f"rendering its colours takes at least {MIN_UPLOAD_BANDS} (the camera's sensors and the "
+                          "monitor's primaries are matched through the spectrum, Eq. 1.4)")
+        return scene, None
 
     def accept_upload(self, outcome):
         """Select the scene of a :meth:`read_upload` outcome, or show its message; returns whether it was selected."""
@@ -1221,6 +1227,10 @@ class Runner:
                 superseded = self._pending is not None
             if not superseded:
                 self._deliver(job, outcome)
+
+
+#: Fewest wavelength bands of an uploaded scene: the camera-monitor transform (Eq. 1.4) of fewer is singular.
+MIN_UPLOAD_BANDS = 3
 
 
 def full_scale(raw, camera=None):

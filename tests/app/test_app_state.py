@@ -803,3 +803,17 @@ def test_an_unquantized_electron_level_raw_is_measured_against_its_full_well():
                                                          / saturation_level(cam), rel=1e-3)
     dcs = cc.simulate(cc.load_scene("cacaphony290"), cc.load_camera("kodak-dcs200-ir").replace(bits=None))
     assert full_scale(dcs) == 255.0  # the chapter's cameras keep the display convention
+
+
+def test_an_upload_of_fewer_than_three_bands_is_refused_in_words(state):
+    """A one-band scene was accepted, then refused by the rendering: "camera-monitor matrix T_C B_M ... singular
+    (rank 1, needs 3)"; the page now says how many bands the file has and how many colour takes."""
+    buf = io.BytesIO()
+    np.savez(buf, data=np.full((8, 8, 1), 0.5), wavelengths=np.array([550.0]))
+    assert state.add_upload("oneband.npz", buf.getvalue()) is False
+    assert state.message.startswith("Upload refused: oneband.npz: 1 wavelength band; rendering its colours takes "
+                                    "at least 3"), state.message
+    assert state.scene == "cacaphony290"
+    buf = io.BytesIO()
+    np.savez(buf, data=np.full((8, 8, 3), 0.5), wavelengths=np.array([450.0, 550.0, 650.0]))
+    assert state.add_upload("three.npz", buf.getvalue()) is True  # three bands render
