@@ -374,6 +374,26 @@ def wait_for_log(url, text, count=1, timeout=TIMEOUT):
         time.sleep(POLL)
 
 
+def open_card(page, title, shown_css):
+    """Open the sidebar card ``title`` and wait until ``shown_css`` (its content) is visible.
+
+    A card makes its content on the server when first opened. A click made while the sidebar moves (a box shown
+    or hidden by the change before) can miss its header: the card then stayed closed and the wait for its content
+    timed out (a fresh clone's run, once). The header is clicked again while its chevron still says collapsed,
+    looked at twice a second (a click flips the chevron in the page at once)."""
+    header = page.page.locator(".card-header", has_text=title).first
+    content = page.page.locator(shown_css).first
+
+    def opened():
+        if content.is_visible():
+            return True
+        if header.locator(".icon-tabler-chevron-right").count():  # still collapsed
+            header.click()
+        return False
+
+    wait_until(opened, what=f"the {title!r} card open, {shown_css} shown", poll=0.5)
+
+
 def wait_until(fn, timeout=TIMEOUT, what="the condition", until=bool, poll=POLL):
     """Call ``fn()`` until ``until(value)`` holds (by default: the value is truthy); return that value.
 

@@ -356,7 +356,9 @@ def _box_shows(page, css, predicate, timeout=30.0):
 
 
 def test_sensor_fields_of_an_electron_level_camera_from_the_sidebar(browser, page):
-    page.page.locator(".card-header", has_text="Sensor (electrons)").first.click()
+    from app_helpers import open_card
+
+    open_card(page, "Sensor (electrons)", ".w-sensor-note")
     well = _sensor_box(page, "w-sensor-well")
     assert not well.is_visible()  # the chapter's DCS-200 is calibrated in digital units: no sensor fields
     note = page.page.locator(".w-sensor-note").first

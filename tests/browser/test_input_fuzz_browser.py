@@ -24,7 +24,7 @@ from urllib.parse import urlencode
 
 import pytest
 
-from app_helpers import TIMEOUT, Page, active_tab, inner_texts, server_log, wait_until
+from app_helpers import TIMEOUT, Page, active_tab, inner_texts, open_card, server_log, wait_until
 from camsim_explorer.main import TABS
 from camsim_explorer.state import PAGE_PARAMETERS, TAB_NAMES, URL_PARAMETERS
 
@@ -140,8 +140,7 @@ def test_every_box_refuses_what_it_cannot_take_by_name_and_shows_the_value_in_fo
         _check_clean(page, server)
 
         # the electron-level sensor's fields
-        page.page.locator(".card-header", has_text="Sensor (electrons)").first.click()  # opened, then the camera
-        page.page.locator(".w-sensor-note").first.wait_for(state="visible")
+        open_card(page, "Sensor (electrons)", ".w-sensor-note")  # opened, then the camera
         page.select("w-camera", "imx174")
         own = page.wait_for(lambda s: s["params"]["camera"] == "imx174" and not s.get("computing"))["params"]
         wait_until(lambda: _box(page, "w-sensor-well").is_visible() and _box(page, "w-sensor-well").input_value(),
