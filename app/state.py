@@ -364,7 +364,9 @@ class ExplorerState(param.Parameterized):
         self._refused_while = None  # the newest job's id when a change was last refused (see ``_apply``)
         self._fitted = set()  # names of the charts fit_chart made (re-fitted when the frame changes)
         self._pending_fit = None  # a chart being fitted in the computing thread (see ``fit_chart``)
-        self._chart_notice = ""  # the notice of a chart fitted here, carried by the next job to ``_apply``
+        # a notice the state's own change makes (a chart fitted here, an exposure or a mosaic put back), carried
+        # by the next job to ``_apply`` (which shows the job's notice with its result)
+        self._next_notice = ""
         #: ``(the exposure before, the chart's)`` while a chart's auto exposure is in force (put back when the
         #: scene leaves the charts: ``_exposure_after_charts``)
         self._exposure_before_chart = None
@@ -458,7 +460,7 @@ class ExplorerState(param.Parameterized):
             self.exposure = before
         finally:
             self._updating = updating
-        self._chart_notice = (f"Exposure {before:.4g} s again, as before the chart (its auto exposure, {chart:.4g} s, "
+        self._next_notice = (f"Exposure {before:.4g} s again, as before the chart (its auto exposure, {chart:.4g} s, "
                               "was for the chart).")
 
     def _note_chart_exposure(self, before, chart):
@@ -503,12 +505,7 @@ class ExplorerState(param.Parameterized):
     def _start_custom_tile(self):
         """A custom tile the camera cannot use (refused, or not sampling every sensor) starts from the
         tile shown instead (then edit it)."""
-        try:
-            cam = self.camera_object()
-            usable = set(np.unique(np.asarray(cam.mosaic)).tolist()) == set(range(len(cam.sensors)))
-        except CamsimError:
-            usable = False
-        if not usable:
+        if not self._tile_samples_every_sensor():
             tile = self.result.raw.tile
             if tile is not None and np.ndim(tile) == 2:
                 self._updating = True
@@ -517,23 +514,27 @@ class ExplorerState(param.Parameterized):
                 finally:
                     self._updating = False
 
+    def _tile_samples_every_sensor(self):
+        """Whether the camera the parameters describe has a mosaic sampling each of its sensors (False: refused)."""
+        try:
+            cam = self.camera_object()
+        except CamsimError:
+            return False
+        return set(np.unique(np.asarray(cam.mosaic)).tolist()) == set(range(len(cam.sensors)))
+
     def _custom_tile_for_new_camera(self):
         """A custom tile that does not sample every sensor of a new camera (0 1 2 on a camera of four) gives way to
         the camera's own mosaic, with a notice: it made every camera of more sensors refused until the mosaic
         was put back by hand."""
         tile = self.custom_tile
-        try:
-            cam = self.camera_object()
-            if set(np.unique(np.asarray(cam.mosaic)).tolist()) == set(range(len(cam.sensors))):
-                return
-        except CamsimError:
-            pass
+        if self._tile_samples_every_sensor():
+            return
         updating, self._updating = self._updating, True
         try:
             self.mosaic = "preset"
         finally:
             self._updating = updating
-        self._chart_notice = (f"Mosaic back to the camera's own: the custom tile {tile} does not sample each of "
+        self._next_notice = (f"Mosaic back to the camera's own: the custom tile {tile} does not sample each of "
                               f"{self.camera}'s sensors.")
 
     def recompute(self):
@@ -579,7 +580,7 @@ class ExplorerState(param.Parameterized):
             job["scene"] = None
         else:
             job["scene"] = self.scene_object()
-        job["notice"], self._chart_notice = self._chart_notice, ""
+        job["notice"], self._next_notice = self._next_notice, ""
         return job
 
     def _compute(self, job):
@@ -889,7 +890,7 @@ class ExplorerState(param.Parameterized):
         finally:
             self._updating = updating
         self._fitted.add(spec["key"])
-        self.notice = self._chart_notice = self._fit_notice(spec, scene, value, self.exposure)
+        self.notice = self._next_notice = self._fit_notice(spec, scene, value, self.exposure)
         return self.notice
 
     def _fit_spec(self, base, expose):
@@ -1019,7 +1020,7 @@ class ExplorerState(param.Parameterized):
                     if check is not None and isinstance(value, str):
                         check(value)  # a text the engine reads (numbers, a tile, sensor fields, a viewing)
                     setattr(self, name, value)
-                except Exception:
+                except (ValueError, TypeError):  # Param's refusal, or the engine's reader's (a ParameterError)
                     refused[name] = value
                 else:
                     accepted.append(name)
