@@ -774,7 +774,14 @@ class ExplorerState(param.Parameterized):
             self.message = message
             return False
         self.message = ""
-        self.add_scene(f"upload:{scene.name}", scene)
+        notes = [n for n in scene.notices if n]
+        if notes:  # what the reader assumed or changed (a distance, a unit, negative values clipped): said with it
+            self._next_notice = f"Loaded {scene.name}: " + "; ".join(notes) + "."
+        key = f"upload:{scene.name}"
+        again = self.scene == key
+        self.add_scene(key, scene)
+        if again:  # the same name again (a file edited and uploaded anew): computed with its new content
+            self.param.trigger("scene")
         return True
 
     def set_chart(self, options):

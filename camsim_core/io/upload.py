@@ -24,16 +24,22 @@ of the server.
 
 from __future__ import annotations
 
+import dataclasses
 import shutil
 import tempfile
+import warnings
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from ..errors import CamsimError, FileFormatError
+from ..scene.scene import RadianceClipped
 from .guard import reader_errors
 
-__all__ = ["UploadLimits", "load_upload", "upload_name", "DEFAULT_LIMITS", "UPLOAD_KINDS"]
+__all__ = ["UploadLimits", "load_upload", "upload_name", "DEFAULT_LIMITS", "UPLOAD_KINDS", "UPLOAD_NEGATIVE"]
+
+#: What an upload's negative radiances become (``negative=`` of the readers): set to 0, with a notice.
+UPLOAD_NEGATIVE = "clip"
 
 
 @dataclass(frozen=True)
@@ -113,7 +119,34 @@ def load_upload(filename, content, limits=DEFAULT_LIMITS):
     type); ``content`` is the file's bytes. Raises
     :class:`~camsim_core.errors.FileFormatError` naming the user's file when
     the upload is not a scene or exceeds ``limits``.
+
+    Negative radiances (the noise a dark subtraction or a scatter correction
+    leaves around zero) are set to 0, and the scene's ``notices`` say how many
+    and the lowest: an upload has no ``negative=`` to choose, as
+    :func:`~camsim_core.load_scene` has. NaN and infinities are refused.
+
+    Examples
+    --------
+    >>> import io, numpy as np
+    >>> cube = np.full((4, 4, 31), 0.1); cube[0, 0, :3] = -0.002
+    >>> buf = io.BytesIO(); np.savez(buf, data=cube, wavelengths=np.arange(400, 701, 10.0))
+    >>> scene = load_upload("dark-subtracted.npz", buf.getvalue())
+    >>> float(scene.data.min()), [n for n in scene.notices if "negative" in n]
+    (0.0, ['3 negative radiance values clipped to 0 (the lowest -0.002)'])
     """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RadianceClipped)
+        scene = _read_upload(filename, content, limits)
+    for w in caught:
+        if not issubclass(w.category, RadianceClipped):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)  # as if not caught
+    notes = [w.message.note for w in caught if issubclass(w.category, RadianceClipped)]
+    if notes:
+        scene = dataclasses.replace(scene, notices=tuple(scene.notices) + tuple(notes))
+    return scene
+
+
+def _read_upload(filename, content, limits):
     name = upload_name(filename)
     suffix = PurePosixPath(name).suffix.lower()
     if suffix not in _SUFFIXES:
@@ -125,7 +158,8 @@ def load_upload(filename, content, limits=DEFAULT_LIMITS):
         from ..scene.matlab import read_mat
 
         with reader_errors(name, "a MATLAB file"):
-            return read_mat(name, content=content, shown=name, max_values=limits.max_scene_values)
+            return read_mat(name, content=content, shown=name, max_values=limits.max_scene_values,
+                            negative=UPLOAD_NEGATIVE)
     tmp = Path(tempfile.mkdtemp(prefix="camsim-upload-"))
     try:
         with reader_errors(name):
@@ -157,7 +191,8 @@ def _load_npz(tmp, name, content, limits):
     path = tmp / "scene.npz"
     path.write_bytes(content)
     _check_directory(path, name, limits)
-    return read_npz_scene(path, name=PurePosixPath(name).stem, shown=name, max_values=limits.max_scene_values)
+    return read_npz_scene(path, name=PurePosixPath(name).stem, shown=name, max_values=limits.max_scene_values,
+                          negative=UPLOAD_NEGATIVE)
 
 
 def _load_single(tmp, name, suffix, content, limits):
@@ -270,7 +305,7 @@ def _load_zip(tmp, name, content, limits):
                 budget -= _extract(z, info, target, name, limits, budget)
     except (zipfile.BadZipFile, EOFError, NotImplementedError, RuntimeError) as exc:
         raise FileFormatError(name, f"not a readable zip file ({exc})") from None
-    scene = read_simg(header, shown=shown, max_values=limits.max_scene_values)
+    scene = read_simg(header, shown=shown, max_values=limits.max_scene_values, negative=UPLOAD_NEGATIVE)
     return scene
 
 
@@ -302,7 +337,8 @@ def _load_other_zip(tmp, name, buf, members, limits):
     if hdrs:
         from ..scene.envi import read_envi
 
-        return read_envi(root / hdrs[0], max_values=limits.max_scene_values, shown=f"{name}:{hdrs[0]}")
+        return read_envi(root / hdrs[0], max_values=limits.max_scene_values, shown=f"{name}:{hdrs[0]}",
+                         negative=UPLOAD_NEGATIVE)
     from ..scene.cave import read_band_folder
 
     return read_band_folder(root / pngs[0].parent, max_values=limits.max_scene_values, shown=f"{name}:{pngs[0].parent}")

@@ -10,7 +10,21 @@ import numpy as np
 from ..errors import ParameterError
 from ..spectra import Spectrum
 
-__all__ = ["Scene", "check_radiance", "radiance_dtype", "scale_light", "WAVELENGTH_RANGE"]
+__all__ = ["Scene", "check_radiance", "radiance_dtype", "scale_light", "WAVELENGTH_RANGE", "RadianceClipped"]
+
+
+class RadianceClipped(UserWarning):
+    """Negative radiances were set to 0 (``negative="clip"``); ``note`` says how many, and the lowest.
+
+    Examples
+    --------
+    >>> RadianceClipped("scene.npz", "2 negative radiance values clipped to 0 (the lowest -1)").note
+    '2 negative radiance values clipped to 0 (the lowest -1)'
+    """
+
+    def __init__(self, where, note):
+        super().__init__(f"{where}: {note}")
+        self.note = note
 
 
 def radiance_dtype(data):
@@ -29,8 +43,8 @@ def radiance_dtype(data):
 def check_radiance(data, where, negative="error"):
     """Validate a radiance cube: finite everywhere; negatives an error, or clipped with a warning.
 
-    ``negative="clip"`` sets negative values to 0 and warns with their count
-    (calibrated captures can dip below zero after the scatter correction).
+    ``negative="clip"`` sets negative values to 0 and warns (:class:`RadianceClipped`) with their count
+    and the lowest (calibrated captures and dark-subtracted cubes dip below zero by their noise).
     A float32 cube stays float32 (half the memory of float64, and every
     stage runs in it); other types become float64. The checks run on
     blocks of rows, so they need no full-size temporary.
@@ -50,18 +64,23 @@ def check_radiance(data, where, negative="error"):
     if a.ndim != 3:
         raise ParameterError(where, f"radiance must be an (H, W, N) array, got shape {a.shape}")
     nonfinite = negatives = 0
+    lowest = 0.0
     for block in _row_blocks(a):
         nonfinite += int(np.count_nonzero(~np.isfinite(block)))
-        negatives += int(np.count_nonzero(block < 0))
+        below = int(np.count_nonzero(block < 0))
+        if below:
+            negatives += below
+            lowest = min(lowest, float(block.min()))
     if nonfinite:
         raise ParameterError(where, f"radiance has {nonfinite} NaN or infinite values; expected finite, non-negative values")
     if negatives:
         if negative == "clip":
-            warnings.warn(f"{where}: {negatives} negative radiance values clipped to 0", stacklevel=3)
+            warnings.warn(RadianceClipped(where, f"{negatives} negative radiance values clipped to 0 (the lowest "
+                                                 f"{lowest:.3g})"), stacklevel=3)
             a = np.where(a < 0, a.dtype.type(0), a)
         else:
             raise ParameterError(
-                where, f"radiance has {negatives} negative values (min {a.min():g}); expected non-negative (load with negative='clip' to clip them)"
+                where, f"radiance has {negatives} negative values (min {lowest:g}); expected non-negative (load with negative='clip' to clip them)"
             )
     return a
 

@@ -86,6 +86,40 @@ def test_good_npz_upload_is_selected(state, tmp_path):
     assert state.result.scene is state.scene_object()
 
 
+def _npz_bytes(cube):
+    buf = io.BytesIO()
+    np.savez(buf, data=cube, wavelengths=np.arange(400, 701, 10.0))
+    return buf.getvalue()
+
+
+def test_an_upload_with_negative_radiance_loads_clipped_and_says_so(state):
+    """A dark-subtracted cube dips below zero by its noise: loaded with those values at 0, and the page says how
+    many and the lowest (it was refused, with advice to pass ``negative='clip'``, which a page cannot)."""
+    cube = np.full((40, 60, 31), 0.1)
+    cube[5, 7, :4] = -0.0031
+    assert state.add_upload("dark.npz", _npz_bytes(cube)), state.message
+    assert state.scene == "upload:dark" and state.message == ""
+    assert state.scene_object().data.min() == 0.0 and state.result.scene is state.scene_object()
+    assert "4 negative radiance values clipped to 0 (the lowest -0.0031)" in state.notice
+    assert state.notice.startswith("Loaded dark: ")
+    state.noise_sigma = 1.0  # said once, with the upload's own result
+    assert "negative" not in state.notice
+    nan = cube.copy()
+    nan[0, 0, 0] = np.nan
+    assert not state.add_upload("nan.npz", _npz_bytes(nan)) and "NaN" in state.message  # still refused
+
+
+def test_a_file_uploaded_again_under_its_name_is_computed_anew(state):
+    """A student edits a scene and uploads it again under the same name: the page computes the new content
+    (the scene list's value did not change, and the result of the old content stayed)."""
+    assert state.add_upload("mine.npz", _npz_bytes(np.full((40, 60, 31), 0.05))), state.message
+    first = state.result
+    assert state.add_upload("mine.npz", _npz_bytes(np.full((40, 60, 31), 0.15))), state.message
+    assert state.result is not first and state.result.scene is state.scene_object()
+    assert float(state.scene_object().data.max()) == pytest.approx(0.15)
+    assert state.result.raw.data.mean() > 2 * first.raw.data.mean()
+
+
 def test_simg_zip_upload(state, tmp_path):
     buf = io.BytesIO()
     folder = SIMTOOLBOX / "BFGB_128"

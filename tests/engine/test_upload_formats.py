@@ -49,6 +49,26 @@ def test_zipped_envi_and_band_folder_uploads(tmp_path, rng):
     assert scene.shape == (4, 5, 31) and scene.data[0, 0, 30] == pytest.approx(31000 / 65535)
 
 
+def test_negative_radiance_in_any_upload_format_is_clipped_and_noted(tmp_path, rng):
+    """An upload cannot ask for ``negative='clip'`` as ``load_scene`` can: every format's negatives (a dark
+    subtraction's noise) become 0, counted in the scene's notices; the values that were not negative are kept."""
+    cube = rng.uniform(0.1, 1, (5, 6, 4))
+    cube[1, 2, :] = [-0.02, -0.005, 0.3, -0.001]
+    envi.save_image(str(tmp_path / "cap.hdr"), cube, ext=".img", metadata={"wavelength": WLS})
+    uploads = {"arad.mat": _bytes(lambda f: savemat(f, {"cube": cube, "bands": np.array(WLS)})),
+               "cap.zip": _zip({"cap/cap.hdr": (tmp_path / "cap.hdr").read_bytes(),
+                                "cap/cap.img": (tmp_path / "cap.img").read_bytes()}),
+               "cube.npz": _bytes(lambda f: np.savez(f, data=cube, wavelengths=np.array(WLS)))}
+    for name, content in uploads.items():
+        scene = load_upload(name, content)
+        np.testing.assert_allclose(scene.data, np.maximum(cube, 0), rtol=1e-6, err_msg=name)
+        assert "3 negative radiance values clipped to 0 (the lowest -0.02)" in scene.notices, (name, scene.notices)
+    nan = cube.copy()
+    nan[0, 0, 0] = np.nan
+    with pytest.raises(FileFormatError, match="arad.mat.*NaN"):
+        load_upload("arad.mat", _bytes(lambda f: savemat(f, {"cube": nan, "bands": np.array(WLS)})))
+
+
 def test_new_upload_formats_obey_the_scene_size_limit(rng):
     small = UploadLimits(max_scene_values=50)
     cube = rng.uniform(0, 1, (5, 6, 4))
