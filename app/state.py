@@ -580,8 +580,33 @@ class ExplorerState(param.Parameterized):
             job["scene"] = None
         else:
             job["scene"] = self.scene_object()
-        job["notice"], self._next_notice = self._next_notice, ""
+        snapped = self.wavelength_in_scene(job["scene"])
+        if snapped:
+            job["params"]["wavelength"] = self.wavelength
+        job["notice"], self._next_notice = " ".join(n for n in (self._next_notice, snapped) if n), ""
         return job
+
+    def wavelength_in_scene(self, scene):
+        """Put a wavelength beyond ``scene``'s bands (a link's ``wavelength=5000``, or the last scene's band past
+        this one's range) on the scene's nearest band; returns the notice saying so, or "" (``scene`` None: "").
+
+        Examples
+        --------
+        >>> s = ExplorerState(start=False, wavelength=5000.0)
+        >>> s.wavelength_in_scene(s.scene_object()), s.wavelength
+        ("Wavelength 5000 nm is outside the scene's 400-700 nm: the Scene tab shows its nearest band, 700 nm.", 700.0)
+        >>> s.wavelength = 604.0; s.wavelength_in_scene(s.scene_object()), s.wavelength  # within: as it is
+        ('', 604.0)
+        """
+        if scene is None:
+            return ""
+        bands = np.asarray(scene.wavelengths, float)
+        asked = float(self.wavelength)
+        if within_bands(asked, bands):
+            return ""
+        self.wavelength = nearest = float(bands[np.argmin(np.abs(bands - asked))])
+        return (f"Wavelength {asked:g} nm is outside the scene's {bands[0]:g}-{bands[-1]:g} nm: the Scene tab shows "
+                f"its nearest band, {nearest:g} nm.")
 
     def _compute(self, job):
         """Run the cached pipeline (the only slow part; safe in a worker thread: one pipeline per session).
@@ -1235,6 +1260,20 @@ class Runner:
                 superseded = self._pending is not None
             if not superseded:
                 self._deliver(job, outcome)
+
+
+def within_bands(wavelength, bands):
+    """Whether ``wavelength`` (nm) lies within a scene's ``bands`` (nm, increasing), to half a band beyond either end.
+
+    Examples
+    --------
+    >>> within_bands(704.0, [400.0, 410.0, 700.0]), within_bands(5000.0, [400.0, 700.0])
+    (True, False)
+    """
+    bands = np.asarray(bands, float)
+    if bands.size < 2:
+        return bands.size == 1 and wavelength == bands[0]
+    return bands[0] - (bands[1] - bands[0]) / 2 <= wavelength <= bands[-1] + (bands[-1] - bands[-2]) / 2
 
 
 #: Fewest wavelength bands of an uploaded scene: the camera-monitor transform (Eq. 1.4) of fewer is singular.

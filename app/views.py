@@ -1229,6 +1229,9 @@ class SceneView(TabView):
         scene = self.scene()
         if scene is None:
             return
+        note = self.state.wavelength_in_scene(scene)  # the address changed to a wavelength beyond the scene's
+        if note:
+            self.state.notice = note
         wls = [float(w) for w in scene.wavelengths]
         k = int(np.argmin(np.abs(np.asarray(wls) - float(self.state.wavelength))))
         if self._wavelengths != wls:

@@ -31,3 +31,20 @@ def test_the_scene_tab_follows_the_light_level_and_keeps_the_clicked_spectra():
     assert "x2 light" in view.meta.object
     state.scene = "macbeth"  # another scene: its own spectra
     assert view.curves.data["ys"] == []
+
+
+def test_a_wavelength_beyond_the_scene_is_put_on_its_nearest_band_and_said():
+    """``?wavelength=5000`` (a typo for 500): the Scene tab showed the 700 nm band without a word, and the address
+    and the status kept 5000. The first result says so and the state holds the band shown; the address changed in
+    the page to another such value: the Scene tab says so."""
+    state = ExplorerState(wavelength=5000.0)
+    assert state.wavelength == 700.0 and state.result.params["wavelength"] == 700.0
+    assert "Wavelength 5000 nm is outside the scene's 400-700 nm" in state.notice and "700 nm" in state.notice
+    state.noise_sigma = 1.0  # said once
+    assert "Wavelength" not in state.notice
+    view = SceneView(state)
+    state.wavelength = 250.0
+    assert state.wavelength == 400.0 and view.wavelength.value == 0
+    assert "Wavelength 250 nm is outside" in state.notice and ">Radiance at 400 nm," in view.plane_label.object
+    state.wavelength = 405.0  # within half a band of 400: taken as it is, shown on the nearest band
+    assert state.wavelength == 405.0 and "Wavelength 405" not in state.notice
