@@ -71,7 +71,8 @@ class CurvesPlot:
     x_range, y_range : (float, float), optional
         Fixed axis ranges (default: fitted to the data shown).
     legend_location : str
-        Where the legend sits in the plot ("top_right", "top_left", ...).
+        Where the legend sits in the plot ("top_right", "top_left", ...), or "below": under the plotting area,
+        four names a row, covering no curve.
     points : bool
         Draw each curve's points as well as its line.
     marks : int
@@ -115,8 +116,12 @@ class CurvesPlot:
                              title=title or " ", x_axis_label=x_label, y_axis_label=y_label, **ranges)
         if css_classes:
             self.figure.css_classes = list(css_classes)
-        self.legend = Legend(items=[], location=legend_location)
-        self.figure.add_layout(self.legend)
+        if legend_location == "below":  # outside the plotting area, four names a row: it covers no point
+            self.legend = Legend(items=[], location="top_left", ncols=4, padding=4, spacing=2)
+            self.figure.add_layout(self.legend, "below")
+        else:
+            self.legend = Legend(items=[], location=legend_location)
+            self.figure.add_layout(self.legend)
         self._points = bool(points)
         self.sources, self.lines, self.points, self.marks = [], [], [], []
         # With no curve shown, fitted ranges have nothing to fit: the browser logged "could not set initial

@@ -50,9 +50,10 @@ def sensors_curves(records):
 
 
 def _panel(method):
-    # alpha is a mixture's weight, 0 to 1: the axis shows that range whatever was run (one alpha drew -1 to 1)
+    # alpha is a mixture's weight, 0 to 1: the axis shows that range whatever was run (one alpha drew -1 to 1);
+    # the legend under the plot: in its top-left corner eight sigmas' names covered the points at alpha 0
     return CurvesPlot(f"{method}: not run yet", "alpha", "mean S-CIELAB dE", frame_width=320, frame_height=240,
-                      legend_location="top_left", points=True, x_range=(-0.05, 1.05))
+                      legend_location="below", points=True, x_range=(-0.05, 1.05))
 
 
 def sensors_plot(records):

@@ -193,3 +193,18 @@ def test_the_experiments_alpha_axis_is_the_mixtures_range_whatever_was_run():
         assert (plot.figure.x_range.start, plot.figure.x_range.end) == (-0.05, 1.05)
         assert plot.figure.title.text.endswith("rendering")
     assert view.message.object.startswith("Done: 1 configuration (")
+
+
+def test_the_experiments_legend_covers_no_point():
+    """Eight sigmas' names sat in the plot's top-left corner, over the points at alpha 0 (where a high sigma's dE
+    is highest on the left): the legend is under the plotting area, every sigma named."""
+    from camsim_explorer.experiments import ExperimentsView
+
+    view = ExperimentsView(run=None)
+    sigmas = [0, 0.5, 1, 2, 3, 5, 8, 12]
+    view._show([{"alpha": a, "sigma": s, "baseline": 10 * a + s, "illuminant": 2 * a + s}
+                for a in (0.0, 0.5, 1.0) for s in sigmas], None)
+    for plot in view.curves.values():
+        fig = plot.figure
+        assert plot.legend in fig.below and plot.legend not in fig.center
+        assert [item.label["value"] for item in plot.legend.items if item.visible] == [f"sigma {s:g}" for s in sigmas]
