@@ -20,7 +20,7 @@ from functools import lru_cache, partial, wraps
 import numpy as np
 import panel as pn
 import param
-from bokeh.events import RangesUpdate, SelectionGeometry, Tap
+from bokeh.events import DoubleTap, RangesUpdate, SelectionGeometry, Tap
 from bokeh.models import (BoxSelectTool, ColumnDataSource, CustomJSHover, CustomJSTickFormatter, DataRange1d,
                           HoverTool, Image, ImageRGBA, LinearColorMapper, Range1d, Span, TapTool)
 from bokeh.palettes import Category10, Greys256, Inferno256
@@ -1160,7 +1160,10 @@ class SceneView(TabView):
                      line_color="color", line_width=2)
             fig.text(x="x", y="y", text="text", source=self.marks, text_color="color", text_font_size="14pt",
                      text_font_style="bold", x_offset=6, y_offset=-4, text_outline_color="white")
+            # a click within Bokeh's double-tap window of the one before comes as a double tap, not a tap: two
+            # pixels clicked quickly added only the first (a double click on one pixel comes as both: added once)
             fig.on_event(Tap, held(self._on_tap))
+            fig.on_event(DoubleTap, held(self._on_tap))
             fig.on_event(SelectionGeometry, held(self._on_box))
             self.figures[key] = fig
         self.spectra = []  # (scene, row0, row1, col0, col1)
@@ -1286,6 +1289,8 @@ class SceneView(TabView):
         col, row = int(np.floor(x)), int(h - 1 - np.floor(y))
         if not (0 <= row < h and 0 <= col < w):
             return
+        if self.spectra and self.spectra[-1][0] is scene and self.spectra[-1][1:] == (row, row + 1, col, col + 1):
+            return  # the same pixel again (a double click is a tap and a double tap)
         self._add(scene, row, row + 1, col, col + 1)
 
     def _on_box(self, event):

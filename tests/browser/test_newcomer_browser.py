@@ -106,6 +106,20 @@ def test_radiance_plane_is_not_a_negative_and_a_dragged_box_adds_a_region_spectr
                     "a region spectrum after dragging a box")
     assert "mean of rows" in labels[-1], labels
     page.shot("scene-tab-region-spectrum")
+    # two pixels clicked quickly one after the other (Bokeh takes the second click for a double tap): both
+    # spectra are added (every other one of quick clicks was dropped); a double click on one pixel adds it once
+    before = len(page.page.evaluate(SPECTRA_JS) or [])
+    page.page.mouse.click(box["x"] + 0.6 * box["width"], box["y"] + 0.4 * box["height"])
+    page.page.mouse.click(box["x"] + 0.7 * box["width"], box["y"] + 0.6 * box["height"])
+    _until(lambda: len(page.page.evaluate(SPECTRA_JS) or []) >= before + 2, "two spectra after two quick clicks")
+    page.page.mouse.dblclick(box["x"] + 0.5 * box["width"], box["y"] + 0.5 * box["height"])
+    _until(lambda: len(page.page.evaluate(SPECTRA_JS) or []) >= before + 3, "a spectrum after a double click")
+    page.page.wait_for_timeout(400)  # past the double-tap window: the next click is a tap of its own
+    page.page.mouse.click(box["x"] + 0.2 * box["width"], box["y"] + 0.8 * box["height"])  # the last, to know all came
+    labels = _until(lambda: (v := page.page.evaluate(SPECTRA_JS) or []) and len(v) >= before + 4 and v,
+                    "a spectrum after the last click")
+    pixels = [label.split(": ", 1)[1] for label in labels[before:]]
+    assert len(set(pixels)) == len(pixels) == 4, labels  # the double-clicked pixel once (a second copy came first)
 
 
 def test_the_fixed_de_scale_is_kept_in_the_link_and_the_parameters_file(browser, server, shared_page):
