@@ -540,7 +540,9 @@ class CompareView:
         refresh, request_update = when_shown(self.refresh), when_shown(self._request_update)
         # designs computed while the tab is hidden (a link's, computing as its page loads) are shown when it is
         self._update_shown = when_shown(lambda: self._safely(self.update))
-        state.param.watch(lambda e: refresh(), ["scene", "viewing"])
+        # the light level is the scene's (the designs are computed on the scene under it): a design of another
+        # level is another result (its dE was the old level's, kept and shown as the new level's)
+        state.param.watch(lambda e: refresh(), ["scene", "viewing", "light"])
         state.param.watch(lambda e: request_update(), ["result", "metric"])
         state.param.watch(self._on_sweep, ["sweep"])
         self._on_pinned()
@@ -646,7 +648,7 @@ class CompareView:
         """Fit ``view``'s frame to images of ``aspect``; the shared ranges to the whole image when the scene or
         the images' shape changed (a live move keeps the user's zoom)."""
         refit = view.fit(aspect)
-        key = (self._scene_key(), aspect)
+        key = (self._scene_key()[:2], aspect)  # a new light level keeps the user's zoom
         if refit or self._fitted is None or self._fitted[0] != key[0] or (
                 max(aspect / self._fitted[1], self._fitted[1] / aspect) > ASPECT_TOLERANCE):
             self._fitted = key
@@ -709,13 +711,14 @@ class CompareView:
 
     # -- computing pinned designs -------------------------------------------------
     def _shared(self):
-        """What the designs share: the scene and how the rendered images are viewed (S-CIELAB)."""
-        return {"scene": self.state.scene, "viewing": self.state.viewing}
+        """What the designs share: the scene, its light level and how the rendered images are viewed (S-CIELAB)."""
+        return {"scene": self.state.scene, "light": self.state.light, "viewing": self.state.viewing}
 
     def _scene_key(self):
+        """(scene, viewing, light level): what a stored design was computed on, besides its own parameters."""
         name = self.state.scene
         scene = name if not name.startswith(("upload:", "file:")) else f"{name}@{id(self.state.scene_object())}"
-        return (scene, self.state.viewing)
+        return (scene, self.state.viewing, float(self.state.light))
 
     def refresh(self):
         """Compute the pinned designs not in the store (in a background thread on a server); then update."""

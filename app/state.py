@@ -367,6 +367,7 @@ class ExplorerState(param.Parameterized):
         # a notice the state's own change makes (a chart fitted here, an exposure or a mosaic put back), carried
         # by the next job to ``_apply`` (which shows the job's notice with its result)
         self._next_notice = ""
+        self._result_metrics = ()  # the maps the result shown was computed with ("cielab", "scielab")
         #: ``(the exposure before, the chart's)`` while a chart's auto exposure is in force (put back when the
         #: scene leaves the charts: ``_exposure_after_charts``)
         self._exposure_before_chart = None
@@ -405,7 +406,19 @@ class ExplorerState(param.Parameterized):
                                   max_text=LIMITS.max_text)
 
     def processing(self):
-        return processing_from_params(self.design_params())
+        """The live design's processing and the maps it makes: the one the page shows, or both CIELAB and
+        S-CIELAB while designs are pinned (the comparison's table, histograms and report score every design by
+        both; in S-CIELAB the live design had no CIELAB map and left the comparison without a word)."""
+        return processing_from_params(self.design_params(), metrics=("cielab", "scielab") if self.pinned else None)
+
+    @param.depends("pinned", watch=True)
+    def _maps_for_the_comparison(self):
+        """Designs pinned: the result shown gets the map it lacks (computed, the rest of its pipeline kept).
+
+        Once per result: a result computed with both maps asked for is not asked again (``_result_metrics``)."""
+        if (self.pinned and self.result is not None and not self.computing
+                and set(self._result_metrics) != {"cielab", "scielab"}):
+            self.recompute()
 
     # -- running -------------------------------------------------------------
     def _on_change(self, *events):
@@ -667,7 +680,9 @@ class ExplorerState(param.Parameterized):
             self._show_fitted(job)
         res.params = job["params"]
         self.shown = dict(job["params"])
+        self._result_metrics = tuple(job["processing"].metrics)
         self.param.update(result=res, computing=False)  # one batch: views redraw once
+        self._maps_for_the_comparison()  # designs pinned while it computed: the map it lacks
 
     def _refuse(self, reason, back_to=None):
         """Say why, and put the parameters back to ``back_to`` (default: those of the result shown)."""

@@ -574,3 +574,46 @@ def test_a_design_slot_joins_the_page_when_a_design_first_takes_it(monkeypatch):
     view.unpin("DCS-200")
     assert view.slot_row.objects == view.slots[:3]  # the freed slot stays on the page, hidden
     assert [s.visible for s in view.slots[:3]] == [False, True, True]
+
+
+def test_pinned_designs_are_computed_on_the_scene_under_the_light_level_in_force():
+    """The light level is the scene's: a pinned design kept its light-1 dE (12.15) under a light of 0.25 (14.07
+    by the engine), hid the live design as equal to it, gave its light-1 result to another session at 0.25, and
+    its report said "light 1". Checked against the engine's own evaluation of each design at each level."""
+    at = {light: evaluate_design({"light": light}, "A") for light in (1.0, 0.25)}
+    assert at[1.0].measures["cielab"]["mean"] != pytest.approx(at[0.25].measures["cielab"]["mean"], rel=0.01)
+    state = ExplorerState()
+    view = CompareView(state)
+    view.pin("A")
+    state.light = 0.25
+    (a,) = json.loads(view.status.object)["designs"]
+    assert a["name"] == "A" and a["measures"] == at[0.25].measures
+    assert view.designs()[0].params["light"] == 0.25  # what the report lists
+    other = ExplorerState(light=0.25)  # another page, at the same level: computes A there, not the level-1 A
+    view2 = CompareView(other)
+    other.pinned = [{"name": "A", "params": state.pinned[0]["params"]}]
+    (a2,) = json.loads(view2.status.object)["designs"]
+    assert a2["measures"] == at[0.25].measures
+    state.light = 1.0  # and back
+    assert json.loads(view.status.object)["designs"][0]["measures"] == at[1.0].measures
+
+
+@pytest.mark.parametrize("metric", ["S-CIELAB", "CIELAB"])
+def test_the_live_design_stays_in_the_comparison_whatever_map_the_page_shows(metric):
+    """With designs pinned the live design is scored by both maps: in S-CIELAB it had no CIELAB map and left the
+    comparison, its histogram and its report without a word; in CIELAB its S-CIELAB cells read "n/a"."""
+    state = ExplorerState(metric=metric)
+    view = CompareView(state)
+    view.pin("A")
+    state.noise_sigma = 4.0  # the live design now differs from A
+    alone = evaluate_design(state.design_params(), "live")
+    status = json.loads(view.status.object)
+    designs = {d["name"]: d for d in status["designs"]}
+    assert sorted(designs) == ["A", "live"]
+    live = designs["live"]
+    assert live["measures"]["cielab"] == alone.measures["cielab"]
+    assert live["measures"]["scielab"] == alone.measures["scielab"]
+    assert status["hist_curves"] == 2
+    shown = state.result.scielab if metric == "S-CIELAB" else state.result.delta_e  # the Results tab's own map
+    assert float(np.mean(shown)) == pytest.approx(live["measures"][metric.lower().replace("-", "")]["mean"])
+    assert "live" in view.report_bytes().getvalue().decode()
