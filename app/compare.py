@@ -646,10 +646,11 @@ class CompareView:
 
     def _fit_view(self, view, aspect):
         """Fit ``view``'s frame to images of ``aspect``; the shared ranges to the whole image when the scene or
-        the images' shape changed (a live move keeps the user's zoom)."""
-        refit = view.fit(aspect)
+        the images' shape changed (a live move keeps the user's zoom, and so does a view taking its first design
+        of the shape the ranges already show: the live design coming back into a slot of its own)."""
+        view.fit(aspect)
         key = (self._scene_key()[:2], aspect)  # a new light level keeps the user's zoom
-        if refit or self._fitted is None or self._fitted[0] != key[0] or (
+        if self._fitted is None or self._fitted[0] != key[0] or (
                 max(aspect / self._fitted[1], self._fitted[1] / aspect) > ASPECT_TOLERANCE):
             self._fitted = key
             fit_ranges(self.x_range, self.y_range, 1.0, aspect, view.figure.frame_width / view.figure.frame_height)
