@@ -31,7 +31,7 @@ from ..simulation import bayer
 from .camera import MAX_CAMERA_SIDE, Camera
 
 __all__ = ["PHYSICAL_NAMES", "physical_camera", "read_sensor_sheet", "angular_resolution_for", "SENSOR_FIELDS",
-           "sensor_values", "with_sensor"]
+           "sensor_values", "with_sensor", "with_settings"]
 
 SENSOR_SHEETS = asset_path("sensors")
 
@@ -301,3 +301,70 @@ def with_sensor(camera, bits=..., **values):
         raise
     except (TypeError, ValueError) as exc:
         raise ParameterError("sensor", str(exc)) from None
+
+
+def with_settings(camera, *, bits=..., sensor=None, **changes):
+    """The camera with its settings changed as the explorer, its parameters files and the command line change them.
+
+    One path for all three, so that a camera set to the same values is the same camera whichever tool set them.
+
+    Parameters
+    ----------
+    camera : Camera
+        The camera to change (a shipped preset, a .Scam file's, a sensor sheet's).
+    bits : int or None, optional
+        The ADC's bit depth, 1 to 32; 0 or None: unquantized (the explorer's and the parameters files' 0).
+        Omitted: kept.
+    sensor : dict, optional
+        :data:`SENSOR_FIELDS` in their units (um, %, e-, e-/s), for an electron-level camera only
+        (:func:`with_sensor`).
+    **changes
+        Other :class:`~camsim_core.Camera` fields: ``distance`` (m), ``exposure`` (s), ``f_stop``,
+        ``noise_sigma`` (DN), ``black_level`` (DN), ``seed``, ``mosaic``, ``height``, ``width``...
+
+    Returns
+    -------
+    Camera
+        A camera in digital units (the chapter's) with the fields replaced. An electron-level camera
+        (``noise_model="photon"``) stays a consistent device (:func:`with_sensor`): an ADC that spans the
+        full well keeps spanning it at another bit depth (imx174 at 8 bits: 32,000 / 255 = 125.5 e-/DN,
+        not 7.81 e-/DN clipping at a sixteenth of the well), and an angular resolution that is the pitch and
+        focal length's follows the distance (px/deg at the focus distance, not at infinity).
+
+    Raises
+    ------
+    ParameterError
+        For a bit depth outside 0 to 32, sensor fields on a camera in digital units, or a field's bad value.
+
+    Examples
+    --------
+    >>> from camsim_core import load_camera
+    >>> imx = load_camera("imx174")
+    >>> cam = with_settings(imx, bits=8, distance=3.32)
+    >>> round(cam.electrons_per_dn, 1), round(cam.angular_resolution[0], 2), round(imx.angular_resolution[0], 2)
+    (125.5, 35.87, 35.74)
+    >>> with_settings(imx, bits=0).bits is None
+    True
+    >>> with_settings(load_camera("kodak-dcs200"), bits=12, distance=2.0).electrons_per_dn
+    1.0
+    """
+    if bits is not ...:
+        if isinstance(bits, (int, np.integer)) and not isinstance(bits, bool) and int(bits) == 0:
+            bits = None
+        elif bits is not None and not (isinstance(bits, (int, np.integer)) and not isinstance(bits, bool) and 1 <= bits <= 32):
+            raise ParameterError("bits", f"must be a whole number from 1 to 32, or 0 (or None) for no quantization; got {bits!r}")
+    sensor = dict(sensor or {})
+    if camera.noise_model != "photon" and not sensor:
+        return camera.replace(**changes, **({} if bits is ... else {"bits": bits}))
+    # whether the pixel's angle follows the lens is read before the changes: a sheet's camera already at one
+    # distance, moved to another, still follows it
+    follows = "angular_resolution" not in changes and camera.noise_model == "photon" and _follows_lens(camera)
+    cam = with_sensor(camera.replace(**changes) if changes else camera, bits=bits, **sensor)
+    if follows:
+        try:
+            phi = _angular_resolution(cam)
+        except ParameterError:  # focused inside the focal length: no angle of a pixel to follow
+            return cam
+        if phi != cam.angular_resolution:
+            cam = cam.replace(angular_resolution=phi)
+    return cam

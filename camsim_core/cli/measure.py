@@ -34,11 +34,11 @@ def register(subparsers):
                    "(default: layout for the macbeth scene, detect for any other)")
     p.add_argument("--snr-vs-light", dest="snr_vs_light", metavar="L1,L2,...",
                    help="SNR (dB) of the camera on uniform fields of these luminances, cd/m^2 (at the given exposure)")
-    p.add_argument("--distance", type=float)
+    p.add_argument("--distance", type=float, help="m (default: the camera's, else the scene's)")
     p.add_argument("--exposure", type=float, help="s (default: auto exposure)")
     p.add_argument("--f-stop", type=float, dest="f_stop")
     p.add_argument("--noise-sigma", type=float, dest="noise_sigma")
-    p.add_argument("--bits", type=int)
+    p.add_argument("--bits", type=int, help="ADC bit depth, 1-32, or 0 for unquantized (default: the camera's)")
     p.add_argument("--black-level", type=float, dest="black_level")
     p.add_argument("--seed", type=int)
     p.add_argument("--demosaic", default="bilinear")
@@ -94,7 +94,6 @@ def _image_report(args, what):
 
 
 def _snr_curve(args):
-    from .. import load_camera
     from ..metrics import snr_vs_light
 
     try:
@@ -104,11 +103,24 @@ def _snr_curve(args):
     if not levels or not all(0 < v <= MAX_LUMINANCE for v in levels):  # NaN fails too
         raise ParameterError("--snr-vs-light", f"expected luminances from above 0 to {MAX_LUMINANCE:g} cd/m^2, "
                                                f"got {args.snr_vs_light!r}")
-    cam = load_camera(args.camera)
-    changes = {k: getattr(args, k) for k in ("noise_sigma", "bits", "black_level", "seed", "f_stop", "exposure")
-               if getattr(args, k) is not None}
-    curve = snr_vs_light(cam.replace(**changes), levels)
+    cam = _camera(args, ("noise_sigma", "black_level", "seed", "f_stop", "exposure"))
+    curve = snr_vs_light(cam, levels)
     return {"camera": cam.name, "snr_vs_light": {k: [float(x) for x in v] for k, v in curve.items()}}
+
+
+def _camera(args, fields, scene=None):
+    """The ``--camera`` with the flags ``fields`` and ``--bits`` set as the explorer and its parameters files set them
+    (:func:`~camsim_core.camera.physical.with_settings`: an electron-level sensor's ADC keeps spanning its full well
+    at another bit depth, its pixel angle follows the distance; ``--bits 0`` is unquantized). Given the ``scene``,
+    a camera without a distance (and no ``--distance``) is placed at the scene's, the one the simulation uses."""
+    from .. import load_camera
+    from ..camera.physical import with_settings
+
+    cam = load_camera(args.camera)
+    changes = {k: getattr(args, k) for k in fields if getattr(args, k) is not None}
+    if scene is not None and "distance" in fields and changes.get("distance") is None and cam.distance is None:
+        changes["distance"] = float(scene.distance)
+    return with_settings(cam, bits=... if args.bits is None else args.bits, **changes)
 
 
 def _print(report):
@@ -152,13 +164,10 @@ def run(args):
     elif args.image:
         report = _image_report(args, what or ("mtf",))
     else:
-        from .. import auto_exposure, load_camera, load_scene
+        from .. import auto_exposure, load_scene
 
         scene = load_scene(args.scene or "slanted-edge")
-        cam = load_camera(args.camera)
-        changes = {k: getattr(args, k) for k in ("noise_sigma", "bits", "black_level", "seed", "distance", "f_stop")
-                   if getattr(args, k) is not None}
-        cam = cam.replace(**changes)
+        cam = _camera(args, ("noise_sigma", "black_level", "seed", "distance", "f_stop"), scene)
         cam = cam.replace(exposure=args.exposure if args.exposure is not None else auto_exposure(scene, cam))
         report = quality_report(scene, cam, what or default_measures(scene.name), demosaic=args.demosaic,
                                 monitor=args.monitor, patches=args.patches)

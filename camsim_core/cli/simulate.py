@@ -43,8 +43,8 @@ def register(subparsers):
     p.add_argument("--noise-sigma", type=float, dest="noise_sigma", help="Gaussian noise sigma, digital units")
     p.add_argument("--black-level", type=float, dest="black_level",
                    help="sensor pedestal added before quantization, digital units (default: the camera's, 0 for the shipped ones)")
-    p.add_argument("--bits", type=int, help="quantization depth, 1-32")
-    p.add_argument("--unquantized", action="store_true", help="no digitization (float output, write .npy)")
+    p.add_argument("--bits", type=int, help="quantization depth, 1-32, or 0 for no digitization (as --unquantized)")
+    p.add_argument("--unquantized", action="store_true", help="no digitization (float output, write .npy); the same as --bits 0")
     p.add_argument("--no-mosaic", action="store_true", help="simulate a full-colour (non-mosaiced) camera")
     p.add_argument("--seed", type=int, help="noise seed")
     p.add_argument("--size", type=_size, metavar="ROWSxCOLS", help="the camera's pixel array, e.g. 3000x4000 (default: the camera's own)")
@@ -80,6 +80,7 @@ def _run_with_progress(image, steps, out, disable=None, write=None):
 
 def run(args):
     from .. import auto_exposure, load_camera, load_scene
+    from ..camera.physical import with_settings
     from ..image import image_from_scene
     from ..io.output import RAW_SUFFIXES
 
@@ -89,8 +90,9 @@ def run(args):
     dng = out.suffix.lower() == ".dng"
     if out.suffix.lower() not in RAW_SUFFIXES and not dng:
         raise ParameterError("--out", f"{out.name}: expected a .tif, .png, .npy or .dng file name")
-    if dng and (args.render or args.demosaic or args.no_mosaic or args.unquantized):
-        raise ParameterError("--out", f"{out.name}: a DNG holds the raw mosaic; drop --render, --demosaic, --no-mosaic and --unquantized")
+    unquantized = args.unquantized or args.bits == 0
+    if dng and (args.render or args.demosaic or args.no_mosaic or unquantized):
+        raise ParameterError("--out", f"{out.name}: a DNG holds the raw mosaic; drop --render, --demosaic, --no-mosaic and --unquantized (--bits 0)")
     if args.seed is not None and args.seed < 0:
         raise ParameterError("--seed", f"must be a whole number >= 0, got {args.seed}")
     for name in ("distance", "exposure", "f_stop", "noise_sigma"):
@@ -106,10 +108,7 @@ def run(args):
         changes["noise_sigma"] = args.noise_sigma
     if args.black_level is not None:
         changes["black_level"] = args.black_level
-    if args.bits is not None:
-        changes["bits"] = args.bits
-    if args.unquantized:
-        changes["bits"] = None
+    bits = None if unquantized else (... if args.bits is None else args.bits)
     if args.no_mosaic:
         changes["mosaic"] = None
     if args.size is not None:
@@ -117,7 +116,11 @@ def run(args):
     for name in ("distance", "exposure", "f_stop", "seed"):
         if getattr(args, name) is not None:
             changes[name] = getattr(args, name)
-    camera = camera.replace(**changes)
+    if "distance" not in changes and camera.distance is None:
+        changes["distance"] = float(scene.distance)  # the distance the simulation uses: an angle of a pixel follows it
+    # as the explorer and its parameters files build it: an electron-level sensor's ADC keeps spanning its full
+    # well at another bit depth, and its pixel angle follows the distance
+    camera = with_settings(camera, bits=bits, **changes)
     if args.auto_exposure:
         camera = camera.replace(exposure=auto_exposure(scene, camera))
     steps = [(getattr(s, "__name__", "stage"), lambda im, s=s: s(camera, im)) for s in camera.architecture]

@@ -124,16 +124,19 @@ def saturation_level(camera):
     The sensor (:func:`camsim_core.simulation.electrons.electron_sensor`) clips the charge at ``full_well``
     electrons, then adds the DSNU and the read noise (e- rms) and multiplies by the system gain
     K = ``analog_gain / electrons_per_dn`` DN/e-, adding ``noise_mean``; the ADC applies the static
-    non-linearity. A saturated pixel is therefore at K x full_well + noise_mean, spread by the read-out's
+    non-linearity. A saturated pixel is therefore at K x full_well
+    (:func:`~camsim_core.simulation.electrons.full_well_level`) + noise_mean, spread by the read-out's
     noise: the level returned is :data:`SATURATION_SIGMAS` standard deviations of it below (at most 5 % of the
     full well below), so that a saturated pixel is counted whatever its read-out noise.
     """
-    if camera is None or getattr(camera, "noise_model", None) != "photon" or getattr(camera, "full_well", None) is None:
+    from ..simulation.electrons import full_well_level, system_gain
+
+    top = full_well_level(camera)  # K x full_well, the one definition auto exposure shares
+    if top is None:
         return None
     well = float(camera.full_well)
-    k = float(camera.analog_gain) / float(camera.electrons_per_dn)
     spread = float(np.hypot(camera.read_noise, camera.dsnu))
-    level = (well - min(SATURATION_SIGMAS * spread, 0.05 * well)) * k + float(camera.noise_mean)
+    level = top - min(SATURATION_SIGMAS * spread, 0.05 * well) * system_gain(camera) + float(camera.noise_mean)
     if camera.nonlinearity is not None and camera.bits is not None:
         from ..simulation.digitize import apply_nonlinearity
 

@@ -322,7 +322,7 @@ def camera_from_params(params, *, max_sensors=MAX_SENSORS, max_tile=MAX_TILE, ma
     ``max_sensors``, ``max_tile`` and ``max_text`` bound the text-described
     parameters (Gaussian centres and widths, the custom tile).
     """
-    from ..camera.physical import with_sensor
+    from ..camera.physical import with_settings
     from ..datasets.sensors import gaussian_sensors
 
     p = dict(DESIGN_DEFAULTS, **params)
@@ -351,12 +351,10 @@ def camera_from_params(params, *, max_sensors=MAX_SENSORS, max_tile=MAX_TILE, ma
         seed=int(p["seed"]),
         optics=cam.optics if p["optics"] == "preset" else str(p["optics"]),
     )
-    bits = int(p["bits"]) or None
     sensor = parse_sensor(p["sensor"], max_text=max_text)
-    if cam.noise_model != "photon" and not sensor:
-        return cam.replace(bits=bits, **changes)
-    # an electron-level sensor stays a consistent device at other bits, pitch or full well
-    return with_sensor(cam.replace(**changes), bits=bits, **sensor)
+    # an electron-level sensor stays a consistent device at other bits, pitch, full well or distance; the
+    # command line builds its cameras through the same function
+    return with_settings(cam, bits=int(p["bits"]) or None, sensor=sensor, **changes)
 
 
 def processing_from_params(params, metrics=None):

@@ -37,12 +37,48 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["electron_sensor", "fixed_patterns", "system_gain", "check_sensor_fields", "photon_transfer"]
+__all__ = ["electron_sensor", "fixed_patterns", "system_gain", "full_well_level", "check_sensor_fields", "photon_transfer"]
 
 
 def system_gain(camera):
     """Overall system gain K, DN per electron: ``analog_gain / electrons_per_dn``."""
     return float(camera.analog_gain) / float(camera.electrons_per_dn)
+
+
+def full_well_level(camera):
+    """The raw value of a pixel at the full well: K x ``full_well`` (DN above the black level), or None.
+
+    Parameters
+    ----------
+    camera : Camera or None
+        An electron-level camera (``noise_model="photon"``) with a ``full_well`` (e-) has one; a camera in
+        digital units (the chapter's), one without a full well, or None has none.
+
+    Returns
+    -------
+    float or None
+        ``full_well`` (e-) x the system gain K (:func:`system_gain`, DN/e-): the noiseless level the charge
+        saturates at, in the raw's digital units above its black level, before the ``noise_mean`` offset,
+        the ADC's non-linearity, rounding and clipping. It is the top of an unquantized electron-level
+        sensor's range: auto exposure aims below it
+        (:func:`camsim_core.simulation.exposure.recordable_level`) and the exposure measures count
+        saturated pixels and the signal against it (:func:`camsim_core.metrics.exposure.saturation_level`).
+
+    Examples
+    --------
+    imx174's ADC spans its 32,000 e- full well at 12 bits; unquantized, the level stays that of the 12-bit
+    conversion (7.81 e-/DN):
+
+    >>> import camsim_core as cs
+    >>> cam = cs.load_camera("imx174")
+    >>> round(full_well_level(cam)), round(full_well_level(cam.replace(bits=None)))
+    (4095, 4095)
+    >>> full_well_level(cs.load_camera("kodak-dcs200")) is None
+    True
+    """
+    if camera is None or getattr(camera, "noise_model", None) != "photon" or getattr(camera, "full_well", None) is None:
+        return None
+    return float(camera.full_well) * system_gain(camera)
 
 
 @lru_cache(maxsize=16)

@@ -11,10 +11,30 @@ __all__ = ["auto_exposure", "recordable_level"]
 
 
 def auto_exposure(scene, camera, *, target=0.9, percentile=99.5):
-    """Exposure time (s) at which the ``percentile`` of the brightest sensor's
-    noiseless response is ``target`` x what it can record (:func:`recordable_level`: the full scale,
-    2**bits - 1 or 255 when unquantized; for an electron-level camera the full well when that comes first).
+    """The exposure time that puts the scene's bright end at ``target`` x what the camera can record.
 
+    Parameters
+    ----------
+    scene : Scene
+        The scene (its radiance planes are read directly, without the optics or the resampling).
+    camera : Camera
+        The camera; its current ``exposure`` (s) is the reference the response is scaled from.
+    target : float
+        Fraction in (0, 1] of :func:`recordable_level` the bright end reaches (default 0.9).
+    percentile : float
+        Percentile (0-100) of the brightest sensor's noiseless response, per scene pixel, that defines
+        the bright end (default 99.5: the brightest 0.5 % of the pixels reach the target).
+
+    Returns
+    -------
+    float
+        Exposure time, s. What the camera can record (:func:`recordable_level`): the ADC's full scale
+        ``2**bits - 1`` DN; for an electron-level camera (``noise_model="photon"``) the full well's level
+        when that comes first, and unquantized the full well's level alone (the top of its range, as
+        the exposure measures read it); 255 DN for an unquantized camera in digital units (the chapter's).
+
+    Notes
+    -----
     Computed on the scene's own pixels (resampling averages, so it lowers the
     peak only slightly). The response is linear in exposure, so one
     evaluation at the camera's current exposure suffices.
@@ -28,6 +48,12 @@ def auto_exposure(scene, camera, *, target=0.9, percentile=99.5):
     >>> raw = cs.simulate(scene, camera, exposure=auto_exposure(scene, camera))
     >>> round(float(raw.data.max()) / 255, 2)
     0.9
+
+    An unquantized imx174 is exposed for its full well, as at its 12 bits (whose ADC spans the well):
+
+    >>> imx = cs.load_camera("imx174")
+    >>> round(auto_exposure(scene, imx.replace(bits=None)) / auto_exposure(scene, imx), 6)
+    1.0
     """
     if not 0 < target <= 1:
         raise ParameterError("target", f"must lie in (0, 1], got {target}")
@@ -44,23 +70,45 @@ def auto_exposure(scene, camera, *, target=0.9, percentile=99.5):
 def recordable_level(camera):
     """The highest response the camera records, in the units of the sensor stage's noiseless output.
 
-    Its full scale (2**bits - 1, or 255 unquantized); for an electron-level camera
-    (``noise_model="photon"``) also its full well, through the conversion gain and the analog gain,
-    whichever comes first, and the black level below the full scale.
+    Parameters
+    ----------
+    camera : Camera
+        Any camera.
+
+    Returns
+    -------
+    float
+        Digital units (DN) before the analog gain, above the black level for an electron-level camera:
+
+        * a camera in digital units (the chapter's): its full scale, ``2**bits - 1``, or 255 unquantized
+          (the engine's display convention);
+        * an electron-level camera (``noise_model="photon"``), quantized: the ADC's headroom above the
+          black level, ``(2**bits - 1 - black_level) / analog_gain``, or its full well's level
+          (:func:`~camsim_core.simulation.electrons.full_well_level` / ``analog_gain`` =
+          ``full_well / electrons_per_dn``), whichever comes first;
+        * an electron-level camera, unquantized: its full well's level (no ADC clips it; the exposure
+          measures and the explorer read its range up to the same level), or 255 / ``analog_gain``
+          above the black level for a sensor without a full well.
 
     Examples
     --------
-    A 16-bit imx174 saturates at its full well, 4,095 DN, long before 65,535:
+    A 16-bit imx174 saturates at its full well, 4,095 DN, long before 65,535; unquantized too:
 
     >>> import camsim_core as cs
-    >>> round(recordable_level(cs.load_camera("imx174").replace(bits=16)))
-    4095
+    >>> imx = cs.load_camera("imx174")
+    >>> round(recordable_level(imx.replace(bits=16))), round(recordable_level(imx.replace(bits=None)))
+    (4095, 4095)
     """
-    full = camera.full_scale or 255.0
+    from .electrons import full_well_level
+
+    full = camera.full_scale
     if camera.noise_model != "photon":
-        return full
+        return full or 255.0
     gain = float(camera.analog_gain)
-    ceiling = (full - float(camera.black_level)) / gain  # the ADC's headroom above black, before the analog gain
-    if camera.full_well is not None:
-        ceiling = min(ceiling, float(camera.full_well) / float(camera.electrons_per_dn))
+    well = full_well_level(camera)
+    if well is not None and full is None:  # unquantized: the sensor's range ends at its full well
+        return well / gain
+    ceiling = ((full or 255.0) - float(camera.black_level)) / gain  # the ADC's headroom above black, before the analog gain
+    if well is not None:
+        ceiling = min(ceiling, well / gain)
     return ceiling

@@ -58,9 +58,12 @@ def test_cli_measure_snr_of_a_file_is_measured_about_its_shading(tmp_path, capsy
     file's numbers are those of the same raw measured so in the process, not those with the shading counted."""
     from camsim_core.metrics.snr import region_snr
 
+    from camsim_core.camera.physical import with_settings
+
     dng = tmp_path / "flat.dng"
-    camera = cs.load_camera("imx174").replace(bits=12)
     scene = cs.load_scene("uniform:size=512")
+    # the camera ``camsim simulate`` builds: at the scene's distance (its pixel angle that at 1 m), as the explorer
+    camera = with_settings(cs.load_camera("imx174"), bits=12, distance=scene.distance)
     exposure = cs.auto_exposure(scene, camera)
     assert main(["simulate", "--scene", "uniform:size=512", "--camera", "imx174", "--bits", "12",
                  "--exposure", repr(exposure), "--out", str(dng)]) == 0
