@@ -216,7 +216,7 @@ def snr_vs_light(camera, luminances, *, size=64, illuminant="D65", seed=0, **sim
     out = {"luminance": lum}
     for i, L in enumerate(lum):
         scene = uniform_scene(size, luminance=float(L), illuminant=illuminant, angular_resolution=cam.angular_resolution)
-        res = region_snr(simulate(scene, cam, **simulate_kwargs))
+        res = region_snr(simulate(scene, cam, **simulate_kwargs), camera=cam)  # saturated at its full well too
         for name, r in res.items():
             out.setdefault(name, np.full(lum.size, np.nan))[i] = np.nan if r["saturated"] else r["snr_db"]
     return out
