@@ -53,7 +53,7 @@ from camsim_core.metrics.viewing import parse_viewing
 
 __all__ = ["ExplorerState", "Runner", "CAMERA_CHOICES", "MOSAIC_CHOICES", "URL_PARAMETERS", "COMPARE_PARAMETERS",
            "VIEW_PARAMETERS", "PAGE_PARAMETERS", "TAB_NAMES",
-           "parse_tile", "parse_numbers", "load_upload", "ServerLimits", "LIMITS", "json_depth", "exposure_warnings",
+           "parse_tile", "parse_numbers", "load_upload", "ServerLimits", "LIMITS", "json_depth", "exposure_warnings", "bright_end",
            "mean_level", "full_scale"]
 
 #: Bits offered; 0 means unquantized.
@@ -1325,7 +1325,10 @@ def exposure_warnings(raw, camera=None):
     """Shares of clipped pixels (at full scale, or at ``camera``'s full well when its sensor saturates below
     full scale) and of pixels in the lowest 2 % of the digital range (:func:`full_scale`).
 
-    ``raw`` is a CameraImage in digital units; returns ``(clipped, dark)`` as fractions.
+    ``raw`` is a CameraImage in digital units; returns ``(clipped, dark)`` as fractions. An unquantized raw of a
+    camera in digital units (the chapter's, no full well) clips nowhere: its 255 is the display's convention
+    (the DCS-200 unquantized at 4x the exposure read "100 % of pixels are clipped: lower the exposure", with the
+    dE of the auto exposure).
     """
     from camsim_core.metrics.exposure import exposure_measures
 
@@ -1333,10 +1336,8 @@ def exposure_warnings(raw, camera=None):
     full = full_scale(raw, camera)
     if raw.quantized:
         clipped = float(np.mean(data >= full - 0.5))
-    elif raw.full_scale is None and full != 255.0:
-        clipped = 0.0  # the full well's pixels are counted by the engine, below
     else:
-        clipped = float(np.mean(data >= full))
+        clipped = 0.0  # nothing clips unquantized but a full well, whose pixels the engine counts, below
     if camera is not None:
         clipped = max(clipped, float(exposure_measures(raw, camera).clipped))
     dark = float(np.mean(data <= 0.02 * full))
@@ -1346,6 +1347,27 @@ def exposure_warnings(raw, camera=None):
 def mean_level(raw, camera=None):
     """The raw image's mean value as a fraction of its full scale (:func:`full_scale`)."""
     return float(np.mean(np.asarray(raw.data, float))) / full_scale(raw, camera)
+
+
+def bright_end(raw, camera=None, percentile=99.5):
+    """Where the frame's bright end lies: the ``percentile`` of its values above the black level, as a fraction of
+    the range above it (:func:`full_scale`); what auto exposure sets (to 0.9 of the range).
+
+    A frame is under-exposed when its bright end is low, not when many of its pixels are dark: a Macbeth chart's
+    black surround put 38 % of the pixels in the lowest 2 % of the range right after Auto exposure, and the page
+    said "under-exposed (try Auto exposure)".
+
+    Examples
+    --------
+    >>> import camsim_core as cc
+    >>> scene, cam = cc.load_scene("macbeth"), cc.load_camera("kodak-dcs200")
+    >>> raw = cc.simulate(scene, cam, exposure=cc.auto_exposure(scene, cam), seed=0)
+    >>> round(bright_end(raw), 1)
+    0.9
+    """
+    black = float(np.max(np.asarray(raw.black_level, float)))
+    top = float(np.percentile(np.asarray(raw.data, np.float32), percentile))
+    return (top - black) / max(full_scale(raw, camera) - black, 1e-12)
 
 
 _LABELS = {"noise_sigma": "noise sigma", "f_stop": "f-stop", "exposure": "exposure (s)", "distance": "distance (m)",

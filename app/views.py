@@ -29,6 +29,7 @@ from panel.models.markup import HTML as HTMLModel
 
 from camsim_core._parallel import run_blocks
 from camsim_core.cache import fingerprint
+from camsim_core.metrics.exposure import saturation_level
 from camsim_core.preview import sensor_colors
 from camsim_core.scene.preview import scene_srgb as preview_srgb
 from camsim_core.screen import block_size, to_screen
@@ -38,7 +39,7 @@ from . import state as state_module
 from .compat import hooks as _compat
 from .safe_text import html_text, md_text
 from .shown import now
-from .state import exposure_warnings, mean_level
+from .state import bright_end, exposure_warnings, mean_level
 from .tab import TabView
 
 
@@ -1032,11 +1033,14 @@ class ResultsView:
             self.stats.object = (f"<p>{head}<strong>{label}</strong> mean dE <strong>{mean:.2f}</strong>{flagged} · median "
                                  f"<strong>{med:.2f}</strong>{view} · engine {1000 * engine_s:.0f} ms "
                                  f"({', '.join(steps) or 'nothing re-run'})</p>")
-        clipped, dark = self._memo("exposure", res.raw, lambda raw: exposure_warnings(raw, getattr(res, "camera", None)))
+        camera = getattr(res, "camera", None)
+        clipped, dark = self._memo("exposure", res.raw, lambda raw: exposure_warnings(raw, camera))
         notes = []
         if clipped > 0.01:
-            notes.append(f"⚠ {100 * clipped:.1f} % of pixels are clipped (at full scale): lower the exposure")
-        if dark > 0.25:
+            where = "at the full well or full scale" if saturation_level(camera) is not None else "at full scale"
+            notes.append(f"⚠ {100 * clipped:.1f} % of pixels are clipped ({where}): lower the exposure")
+        # under-exposed: many dark pixels and a low bright end (a chart's black surround is dark content)
+        if dark > 0.25 and self._memo("bright_end", res.raw, lambda raw: bright_end(raw, camera)) < 0.5:
             notes.append(f"⚠ {100 * dark:.0f} % of pixels are in the lowest 2 % of the digital range: "
                          "under-exposed (try Auto exposure)")
         level = self._memo("level", res.raw, lambda raw: mean_level(raw, getattr(res, "camera", None)))

@@ -851,3 +851,28 @@ def test_an_upload_of_fewer_than_three_bands_is_refused_in_words(state):
     buf = io.BytesIO()
     np.savez(buf, data=np.full((8, 8, 3), 0.5), wavelengths=np.array([450.0, 550.0, 650.0]))
     assert state.add_upload("three.npz", buf.getvalue()) is True  # three bands render
+
+
+def test_the_exposure_line_claims_no_clipping_where_nothing_clips_and_no_under_exposure_after_auto_exposure():
+    """The DCS-200 unquantized at 4x its auto exposure: "100 % of pixels are clipped: lower the exposure", where
+    nothing clips (255 is the display's convention; the dE equals the auto exposure's). The Macbeth chart right
+    after Auto exposure: "38 % of pixels ... under-exposed (try Auto exposure)" for its black surround."""
+    import camsim_core as cs
+
+    scene, cam = cs.load_scene("uniform"), cs.load_camera("kodak-dcs200-ir").replace(bits=None)
+    auto = cs.auto_exposure(scene, cam)
+    raw = cs.simulate(scene, cam, exposure=4 * auto, seed=0)
+    assert float(np.mean(np.asarray(raw.data) > 255)) > 0.99  # above the display's 255 almost everywhere
+    assert exposure_warnings(raw, cam)[0] == 0.0
+    state = ExplorerState(scene="uniform", bits=0)
+    view = ResultsView(state)
+    state.exposure = 4 * state.exposure  # anything: unquantized, nothing clips
+    assert "clipped (" not in view.warnings.object
+    state = ExplorerState(scene="macbeth")
+    view = ResultsView(state)
+    state.auto_expose()
+    assert "under-exposed" not in view.warnings.object, view.warnings.object
+    dark = float(view.warnings.object.split("in the lowest 2 % of levels ")[1].split(" %")[0])
+    assert dark > 25  # the surround: dark content, not a dark frame
+    state.exposure = state.exposure / 20  # now the frame is dim
+    assert "under-exposed (try Auto exposure)" in view.warnings.object
