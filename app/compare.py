@@ -1029,7 +1029,8 @@ class CompareView:
                         self.render_views[j].show_view(*self._prepared("render", r.rendered), f"{r.name}: rendered")
                     elif old[0] != r.name:
                         self.render_views[j].figure.title.text = f"{r.name}: rendered"
-                    label = f"{r.name}: {metric if r.error_map(metric) is not None else 'CIELAB'} dE"
+                    # the scale the designs' maps share (the report's for this metric): said, as the Results tab says its own
+                    label = f"{r.name}: {metric if r.error_map(metric) is not None else 'CIELAB'} dE, 0 to {top:g}"
                     if not _same(old[2], de):
                         self.de_views[j].show_view(*self._prepared("de", de), label)
                     elif self.de_views[j].figure.title.text != label:

@@ -210,8 +210,12 @@ def report_html(results, *, sweep=None, points=None, ab=None, title="camsim desi
         raise ParameterError("designs", "a report needs at least one design")
     e = html.escape
     colours = design_colours([r.name for r in results], more=[name for _, name in _designs_of(points or [])])
-    maps = [r.delta_e for r in results] + [r.scielab for r in results if r.scielab is not None]
-    top = shared_scale(maps)
+    # one colour scale per metric, over every design's map of it: the scale the explorer's Compare tab shows that
+    # metric's maps on (one scale over both metrics' maps drew the CIELAB maps up to 1.7 times darker than the page)
+    tops = {"CIELAB": shared_scale([r.delta_e for r in results])}
+    if any(r.scielab is not None for r in results):
+        tops["S-CIELAB"] = shared_scale([r.scielab for r in results if r.scielab is not None])
+    top = tops.get(metric, tops["CIELAB"])
     scenes = sorted({r.scene_name or str(r.params.get("scene")) for r in results})
     quality = [k for k in QUALITY_LABELS if any(k in r.quality for r in results)]  # what the scene allows
     rows = []
@@ -242,9 +246,11 @@ def report_html(results, *, sweep=None, points=None, ab=None, title="camsim desi
                  + param_rows([k for k in DESIGN_PARAMETERS if k not in _SKIP]) + "</tbody></table>")
     figures = []
     for i, r in enumerate(results):
-        imgs = [(png_data_uri(r.rendered), "rendered"), (png_data_uri(colour_map(r.delta_e, top)), "CIELAB dE map")]
+        imgs = [(png_data_uri(r.rendered), "rendered"),
+                (png_data_uri(colour_map(r.delta_e, tops["CIELAB"])), f"CIELAB dE map (0 to {tops['CIELAB']:g})")]
         if r.scielab is not None:
-            imgs.append((png_data_uri(colour_map(r.scielab, top)), "S-CIELAB dE map"))
+            imgs.append((png_data_uri(colour_map(r.scielab, tops["S-CIELAB"])),
+                         f"S-CIELAB dE map (0 to {tops['S-CIELAB']:g})"))
         cells = "".join(f'<figure><img src="{u}" alt="{e(r.name)}: {c}" title="{e(r.name)}: {c}">'
                         f"<figcaption>{c}</figcaption></figure>" for u, c in imgs)
         colour = colours[r.name]
@@ -253,9 +259,11 @@ def report_html(results, *, sweep=None, points=None, ab=None, title="camsim desi
                        f"</small></h3><div class=row>{cells}</div></section>")
     ideal = (f'<figure><img src="{png_data_uri(results[0].ideal)}" alt="ideal image" title="ideal image">'
              f"<figcaption>ideal image ({e(results[0].name)}'s geometry)</figcaption></figure>")
-    bar = np.repeat(colour_map(np.linspace(0, top, 256)[None, :], top), 16, axis=0)
+    bar = np.repeat(colour_map(np.linspace(0, 1, 256)[None, :], 1.0), 16, axis=0)
+    scales = "; ".join(f"{m} maps 0 to {t:g}" for m, t in tops.items())
     colourbar = (f'<figure class="bar"><img src="{png_data_uri(bar)}" alt="colour scale" width="256" height="16">'
-                 f"<figcaption>dE 0 to {top:g} (one scale for every map)</figcaption></figure>")
+                 f"<figcaption>dE, 0 to the top of each metric's scale: {scales} (the 99th percentile of every "
+                 "design's map of it, rounded up to 5, as the explorer's Compare tab shows them)</figcaption></figure>")
     sections = [
         f"<h2>Measures</h2><p>Against the ideal image (the scene through the camera's geometry with cone sensors, "
         f"no mosaic, no noise). dE is CIELAB dE*ab (CIE 1976) per pixel.</p>{measures_table}",
@@ -263,20 +271,22 @@ def report_html(results, *, sweep=None, points=None, ab=None, title="camsim desi
         f"<h2>Images</h2><div class=row>{ideal}{colourbar}</div>" + "".join(figures),
         f'<h2>dE histograms</h2><img class="plot" src="{_histogram_uri(results, metric, colours)}" alt="{metric} dE histograms">',
     ]
-    data = {"camsim_version": _version(), "scenes": scenes, "metric": metric, "scale_top": top,
+    data = {"camsim_version": _version(), "scenes": scenes, "metric": metric, "scale_top": top, "scale_tops": tops,
             "designs": [{"name": r.name, "params": r.params, "measures": r.measures} for r in results]}
     if ab is not None and len(results) >= 2:
         a, b = results[0], results[1]
+        ab_top = shared_scale([ab["delta_e"]])
         wins = np.where(ab["a_wins"][..., None], np.array([31, 119, 180]), np.array([255, 127, 14]))
         tie = (a.error_map(metric) == b.error_map(metric))
         wins[tie] = 200
         sections.append(
             f"<h2>A/B difference: {e(a.name)} against {e(b.name)}</h2><p>dE*ab between the two renderings: mean "
             f"{_fmt(ab['measures']['mean'])}, median {_fmt(ab['measures']['median'])}. {e(a.name)} is closer to the "
-            f"ideal image on {100 * ab['a_wins_fraction']:.1f} % of the pixels (blue), {e(b.name)} on "
+            f"ideal image (by {e(metric)} dE) on {100 * ab['a_wins_fraction']:.1f} % of the pixels (blue), {e(b.name)} on "
             f"{100 * ab['b_wins_fraction']:.1f} % (orange; ties grey).</p><div class=row>"
-            f'<figure><img src="{png_data_uri(colour_map(ab["delta_e"], top))}" alt="A/B dE"><figcaption>dE between '
-            f"the renderings</figcaption></figure><figure><img src=\"{png_data_uri(wins)}\" alt=\"which design wins\">"
+            f'<figure><img src="{png_data_uri(colour_map(ab["delta_e"], ab_top))}" alt="A/B dE"><figcaption>dE between '
+            f"the renderings (0 to {ab_top:g}, its own scale, as in the explorer)</figcaption></figure>"
+            f"<figure><img src=\"{png_data_uri(wins)}\" alt=\"which design wins\">"
             f"<figcaption>which design is closer to the ideal image</figcaption></figure></div>")
         data["ab"] = {"a": a.name, "b": b.name, "measures": ab["measures"],
                       "a_wins_fraction": ab["a_wins_fraction"], "b_wins_fraction": ab["b_wins_fraction"]}

@@ -617,3 +617,30 @@ def test_the_live_design_stays_in_the_comparison_whatever_map_the_page_shows(met
     shown = state.result.scielab if metric == "S-CIELAB" else state.result.delta_e  # the Results tab's own map
     assert float(np.mean(shown)) == pytest.approx(live["measures"][metric.lower().replace("-", "")]["mean"])
     assert "live" in view.report_bytes().getvalue().decode()
+
+
+def test_the_report_draws_each_metrics_maps_on_the_scale_the_page_shows_them():
+    """The report put every design's CIELAB and S-CIELAB maps on one scale over both (140 for a design the page
+    showed on 90), and its A/B map on the designs' scale where the page draws it on its own; neither said so."""
+    import html as html_module
+    import re
+
+    state = ExplorerState(exposure=0.4)  # 4x: large errors, where S-CIELAB's top is above CIELAB's
+    view = CompareView(state)
+    view.pin("DCS-200")
+    state.camera = "human-cones"
+    view.pin("cones")
+    page_tops = {}
+    for metric in ("CIELAB", "S-CIELAB"):
+        state.metric = metric
+        status = json.loads(view.status.object)
+        page_tops[metric] = status["scale_top"]
+        assert all(v.figure.title.text.endswith(f" dE, 0 to {status['scale_top']:g}")
+                   for v, slot in zip(view.de_views, view.slots) if slot.visible)
+        text = view.report_bytes().getvalue().decode()
+        data = json.loads(html_module.unescape(re.search(
+            r'<script type="application/json" id="camsim-report-data">(.*?)</script>', text, re.S).group(1)))
+        assert data["scale_tops"][metric] == page_tops[metric]
+    assert page_tops["S-CIELAB"] != page_tops["CIELAB"]
+    assert f"CIELAB dE map (0 to {page_tops['CIELAB']:g})" in text
+    assert f"S-CIELAB dE map (0 to {page_tops['S-CIELAB']:g})" in text

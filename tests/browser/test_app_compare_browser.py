@@ -70,7 +70,7 @@ def test_two_pinned_designs_side_by_side(compared, engine):
     def check_figures():  # once the browser has the comparison's figures (they follow the status)
         figures = page.page.evaluate(_FIGURES)
         rendered = [k for k in figures if k.endswith(": rendered")]
-        maps = [k for k in figures if k.endswith(" dE") and ":" in k]
+        maps = [k for k in figures if " dE, 0 to " in k and ":" in k]
         assert sorted(rendered) == ["DCS-200: rendered", "human cones: rendered"]
         assert page.page.locator(".camsim-compare-rendered").filter(has=page.page.locator("canvas")).count() >= 2
         # shared zoom and pan: one x range and one y range for every image view
@@ -81,8 +81,10 @@ def test_two_pinned_designs_side_by_side(compared, engine):
         h, w = h / w, 1.0  # the tab shows every image in scene widths (designs of other pixel counts line up)
         xr, yr = figures[rendered[0]]["xr"], figures[rendered[0]]["yr"]
         assert xr[0] <= 0.05 * w and xr[1] >= 0.95 * w and yr[0] <= 0.05 * h and yr[1] >= 0.95 * h, (xr, yr, w, h)
-        # one colour scale for every dE map
-        assert len({tuple(m) for k in maps for m in figures[k]["mappers"]}) == 1
+        # one colour scale for every dE map, the one their titles say
+        assert len(maps) == 2
+        (scale,) = {tuple(m) for k in maps for m in figures[k]["mappers"]}
+        assert all(k.endswith(f" dE, 0 to {scale[1]:g}") for k in maps) and scale[0] == 0, (maps, scale)
         # two histogram curves, each labelled with its mean and median
         hist = next(v for k, v in figures.items() if k.startswith("Overlaid"))
         labels = [lab for lab in hist["legend"] if lab]
