@@ -252,11 +252,31 @@ def photometry(camera, image):
     the optics stage multiplies the blurred planes by; the fused lens stage
     (:mod:`.fused`) folds ``spectral`` into the sensor weights instead.
     """
+    spectral, scalar = on_axis(camera, image)
+    spatial = relative_illumination_map(camera, image) if camera.relative_illumination or camera.vignetting > 0 else None
+    return spectral, spatial, scalar
+
+
+def on_axis(camera, image):
+    """The lens's factors on the light at the centre of the field: ``(spectral, scalar)`` of :func:`photometry`.
+
+    What a lens does to an on-axis pixel's light whatever the scene's content: its transmittance (N,) at the
+    image's (or scene's) wavelengths, or None, and (1 + m)^-2 of the working f-number for quantal sensors (1
+    otherwise). Auto exposure takes them into account (a lens focused at 0.1 m on imx174 passes 1 / 1.29 of
+    the light its f-number says).
+
+    Examples
+    --------
+    >>> import camsim_core as cs
+    >>> cam = cs.load_camera("imx174").replace(distance=0.1)
+    >>> spectral, scalar = on_axis(cam, cs.load_scene("uniform"))
+    >>> spectral is None, round(scalar, 3)  # m = 12 mm / (100 - 12) mm
+    (True, 0.774)
+    """
     d = camera.distance if camera.distance is not None else image.distance
     spectral = None if camera.lens_transmittance is None else camera.lens_transmittance.on(np.asarray(image.wavelengths, float))
-    spatial = relative_illumination_map(camera, image) if camera.relative_illumination or camera.vignetting > 0 else None
     scalar = 1.0 / (1.0 + magnification(camera.focal_length, d)) ** 2 if camera.sensors.unit == "Quanta" else 1.0
-    return spectral, spatial, scalar
+    return spectral, scalar
 
 
 @stage("optics", "defocus", "f_stop", "focal_length", "distance", "lens_transmittance", "relative_illumination",

@@ -16,7 +16,8 @@ def auto_exposure(scene, camera, *, target=0.9, percentile=99.5):
     Parameters
     ----------
     scene : Scene
-        The scene (its radiance planes are read directly, without the optics or the resampling).
+        The scene (its radiance planes are read directly, without the blur or the resampling; the lens's
+        transmittance and its working f-number at the focus distance, N (1 + m), are counted as on its axis).
     camera : Camera
         The camera; its current ``exposure`` (s) is the reference the response is scaled from.
     target : float
@@ -57,7 +58,12 @@ def auto_exposure(scene, camera, *, target=0.9, percentile=99.5):
     """
     if not 0 < target <= 1:
         raise ParameterError("target", f"must lie in (0, 1], got {target}")
+    from ..optics.stage import on_axis, optics_active
+
     weights, _ = sensor_weights(camera, scene.wavelengths)
+    if optics_active(camera):  # the lens's transmittance and (1 + m)^-2 as the optics stage applies them on axis
+        spectral, scalar = on_axis(camera, scene)
+        weights = weights * scalar if spectral is None else weights * (scalar * spectral[:, None])
     h, w, n = scene.data.shape
     step = max(1, int(np.sqrt(h * w / 65536)))
     sample = scene.data[::step, ::step].reshape(-1, n) @ weights

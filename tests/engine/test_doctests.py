@@ -18,7 +18,7 @@ MODULES = ["camsim_core.io.guard", "camsim_core.io.matv5", "camsim_core.io.hdf5"
            "camsim_core.rendering", "camsim_core.rendering.ideal", "camsim_core.metrics.sharpness",
            "camsim_core.datasets.colour_science", "camsim_core.review.design",
            "camsim_core.metrics.exposure", "camsim_core.camera.physical", "camsim_core.simulation.electrons",
-           "camsim_core.io.upload"]
+           "camsim_core.io.upload", "camsim_core.optics.stage"]
 
 
 @pytest.mark.parametrize("name", MODULES)
