@@ -180,3 +180,15 @@ def test_a_tall_narrow_noisy_region_is_not_taken_for_a_horizontal_edge():
     assert edge_angle(img) == pytest.approx(5.0, abs=0.2)
     f, m = slanted_edge_mtf(img, half_width=32)
     assert mtf50(f, m) == pytest.approx(np.sqrt(np.log(2) / 2) / (np.pi * 0.7), rel=0.06)
+
+
+def test_noise_alone_is_not_taken_for_an_edge():
+    """The rise across the frame is held to the noise of a difference of means (a dim, coarse edge of 5 sigma
+    per pixel is one): fields of noise alone, and noise over a faint ramp, are still refused, never measured."""
+    rng = np.random.default_rng(0)
+    for i in range(20):
+        field = 100 + 2.0 * rng.standard_normal((128, 160))
+        if i % 2:
+            field += np.linspace(0, 0.2, 160)[None, :]  # a ramp of a tenth of the noise across the frame
+        with pytest.raises(ParameterError):
+            slanted_edge_mtf(np.round(field))

@@ -101,11 +101,14 @@ def test_whole_frame_and_central_region_give_the_same_mtf50(name, f_stop):
     assert 0.05 < whole < 0.6
 
 
-def test_a_dim_coarsely_quantized_edge_is_measured_not_called_too_blurred():
-    # imx174 at 6 bits and a tenth of its exposure: a step of ~4 DN, whose ESF's ends scatter by more than
-    # 5 % of the step; that is noise, and the measure said the blur was too wide for its region
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_dim_coarsely_quantized_edge_is_measured_not_called_too_blurred(seed):
+    # imx174 at 6 bits and a tenth of its exposure: a step of ~3 DN, whose ESF's ends scatter by more than
+    # 5 % of the step; that is noise, and the measure said the blur was too wide for its region. And the step
+    # is 5 sigma of one pixel's noise: "no edge found" for two seeds in three (the rise, a median of means over
+    # rows, was held to one pixel's noise)
     camera = load_camera("imx174").replace(height=480, width=640, bits=6)
     opts = fitted_chart_options("slanted-edge", (480, 640), camera.angular_resolution, 3.32)
     scene = load_scene(chart_name("slanted-edge", opts))
-    raw = simulate(scene, camera, distance=3.32, exposure=0.1 * auto_exposure(scene, camera, target=0.9), seed=1)
+    raw = simulate(scene, camera, distance=3.32, exposure=0.1 * auto_exposure(scene, camera, target=0.9), seed=seed)
     assert 0.1 < edge_mtf(demosaic(raw, "bilinear"))["luminance"]["mtf50"] < 0.45
