@@ -29,7 +29,9 @@ def run_stages(camera, image, stages=None):
 def simulate(scene, camera, *, distance=None, exposure=None, f_stop=None, seed=None):
     """Predict the camera image of ``scene``: the camera's stages applied in order.
 
-    Keyword arguments override the camera's own settings for this picture.
+    Keyword arguments override the camera's own settings for this picture, as the explorer and the command line
+    set them (:func:`camsim_core.camera.physical.with_settings`: an electron-level camera's pixel angle follows
+    ``distance``, m).
     Returns a :class:`~camsim_core.image.CameraImage` whose ``.data`` is the array.
 
     Examples
@@ -44,5 +46,9 @@ def simulate(scene, camera, *, distance=None, exposure=None, f_stop=None, seed=N
     """
     changes = {k: v for k, v in dict(distance=distance, exposure=exposure, f_stop=f_stop, seed=seed).items() if v is not None}
     if changes:
-        camera = camera.replace(**changes)
+        from ..camera.physical import with_settings
+
+        # as the explorer and the command line change a camera: an electron-level camera's pixel angle follows
+        # the focus distance (imx174 at 0.3 m: 4 % more pixels per degree than at infinity, which it kept here)
+        camera = with_settings(camera, **changes)
     return run_stages(camera, image_from_scene(scene))

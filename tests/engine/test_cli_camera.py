@@ -171,3 +171,15 @@ def test_snr_vs_light_marks_a_channel_saturated_at_the_full_well():
     out = snr_vs_light(cam, [10.0, 100.0], exposure=0.05)
     assert np.isnan(out["G"][1]) and np.isfinite(out["G"][0])
     assert np.all(np.isfinite(out["R"])) and np.all(np.isfinite(out["B"]))
+
+
+def test_simulate_at_a_distance_samples_as_the_explorer_does():
+    """``simulate(scene, imx174, distance=0.3)`` kept the pixel angle of a lens focused at infinity (35.74
+    px/deg) where the explorer's camera at 0.3 m has the angle of its image distance f (1 + m): 4 % more."""
+    scene = cs.load_scene("uniform")
+    cam = cs.load_camera("imx174")
+    raw = cs.simulate(scene, cam, distance=0.3, exposure=0.01, seed=0)
+    explorer = camera_from_params({"camera": "imx174", "distance": 0.3})
+    m = cam.focal_length / (300.0 - cam.focal_length)
+    np.testing.assert_allclose(raw.angular_resolution, explorer.angular_resolution, rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(raw.angular_resolution) / np.asarray(cam.angular_resolution), 1 + m, rtol=2e-3)
