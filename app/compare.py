@@ -718,14 +718,17 @@ class CompareView:
     def _scene_key(self):
         """(scene, viewing, light level): what a stored design was computed on, besides its own parameters."""
         name = self.state.scene
-        scene = name if not name.startswith(("upload:", "file:")) else f"{name}@{id(self.state.scene_object())}"
+        # an upload by the object read (not the one under the light level, made anew at each level: a new key,
+        # and every design computed again, at every return to a level)
+        held = self.state._uploads.get(name) if name.startswith(("upload:", "file:")) else None
+        scene = name if held is None else f"{name}@{id(held)}"
         return (scene, self.state.viewing, float(self.state.light))
 
     def refresh(self):
         """Compute the pinned designs not in the store (in a background thread on a server); then update."""
         self._generation += 1
         generation = self._generation
-        key = self._scene_key()
+        key, shared = self._scene_key(), self._shared()  # what the designs are computed on, read once, here
         building = page_being_built(self._server_doc())
         if building:
             self._take_shared(key)
@@ -754,9 +757,9 @@ class CompareView:
         # (a pin took 5-12 s, the whole pipeline again)
         live = self.state.pipeline.snapshot() if self.state.result is not None and not self.state.computing else None
         if self._server_doc() is None:
-            self._compute(missing, scene, key, generation, live)
+            self._compute(missing, scene, key, generation, live, shared)
         else:
-            self._start_worker(self._compute, (missing, scene, key, generation, live), "camsim-compare")
+            self._start_worker(self._compute, (missing, scene, key, generation, live, shared), "camsim-compare")
 
     def _take_shared(self, key):
         """The pinned designs another session holds (:data:`SHARED_DESIGNS`), into this page's store now: a page
@@ -771,7 +774,7 @@ class CompareView:
                     self._prepare_design(result, metric)
                     self.store.put(key, p["params"], result)
 
-    def _compute(self, missing, scene, key, generation, live=None):
+    def _compute(self, missing, scene, key, generation, live=None, shared=None):
         """Compute the designs ``missing`` (shown as each is done), then their image-quality measures.
 
         A design is shown once simulated and scored (its images, dE maps and numbers); its image-quality
@@ -787,7 +790,9 @@ class CompareView:
         for i, p in enumerate(missing):
             if generation != self._generation:
                 break
-            params = {**p["params"], **self._shared()}
+            # the scene, light and viewing ``scene`` and ``key`` were made with (read again here, a light changed
+            # meanwhile was recorded with designs computed on the scene under the old one)
+            params = {**p["params"], **(shared or self._shared())}
             try:
                 result = SHARED_DESIGNS.get(key, params)  # another page's (a link's designs, pinned by who shared it)
                 if result is None:

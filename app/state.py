@@ -473,8 +473,8 @@ class ExplorerState(param.Parameterized):
             self.exposure = before
         finally:
             self._updating = updating
-        self._next_notice = (f"Exposure {before:.4g} s again, as before the chart (its auto exposure, {chart:.4g} s, "
-                              "was for the chart).")
+        self._add_notice(f"Exposure {before:.4g} s again, as before the chart (its auto exposure, {chart:.4g} s, "
+                         "was for the chart).")
 
     def _note_chart_exposure(self, before, chart):
         """A chart's auto exposure ``chart`` (s) replaced ``before`` (s): the exposure to put back when the scene
@@ -547,8 +547,8 @@ class ExplorerState(param.Parameterized):
             self.mosaic = "preset"
         finally:
             self._updating = updating
-        self._next_notice = (f"Mosaic back to the camera's own: the custom tile {tile} does not sample each of "
-                              f"{self.camera}'s sensors.")
+        self._add_notice(f"Mosaic back to the camera's own: the custom tile {tile} does not sample each of "
+                         f"{self.camera}'s sensors.")
 
     def recompute(self):
         """Compute the result for the current parameters (in the background when a runner is set).
@@ -598,6 +598,11 @@ class ExplorerState(param.Parameterized):
             job["params"]["wavelength"] = self.wavelength
         job["notice"], self._next_notice = " ".join(n for n in (self._next_notice, snapped) if n), ""
         return job
+
+    def _add_notice(self, text):
+        """Add ``text`` to the notice the next result carries (an upload's, a chart's exposure put back, a mosaic
+        given back: one did not replace another)."""
+        self._next_notice = " ".join(n for n in (self._next_notice, text) if n)
 
     def wavelength_in_scene(self, scene):
         """Put a wavelength beyond ``scene``'s bands (a link's ``wavelength=5000``, or the last scene's band past
@@ -816,7 +821,7 @@ class ExplorerState(param.Parameterized):
         self.message = ""
         notes = [n for n in scene.notices if n]
         if notes:  # what the reader assumed or changed (a distance, a unit, negative values clipped): said with it
-            self._next_notice = f"Loaded {scene.name}: " + "; ".join(notes) + "."
+            self._add_notice(f"Loaded {scene.name}: " + "; ".join(notes) + ".")
         key = f"upload:{scene.name}"
         again = self.scene == key
         self.add_scene(key, scene)

@@ -156,10 +156,10 @@ def _edge_line(a, half_width):
     rise = np.median(a[:, -k:].mean(axis=1) - a[:, :k].mean(axis=1))
     sample = d[:: max(1, rows // 128)]
     noise = 1.4826 * np.median(np.abs(sample - np.median(sample))) / np.sqrt(2)  # per-pixel sigma from differences
-    # the rise is a median over rows of means over k columns a side: against the noise of such a difference,
-    # sigma sqrt(2 / k) (five times the noise of one pixel refused a dim edge of 2.6 DN in 0.52 DN of noise, 5
-    # sigma in every single pixel, as "no edge")
-    if not rise > max(5 * noise * np.sqrt(2.0 / k), 1e-9 * np.abs(a).max()):
+    # the rise is a median over rows of means over k columns a side: five times the noise of such a difference,
+    # sigma sqrt(2 / k), and at least three times one pixel's noise (a ramp of 2 sigma across a noisy field passed
+    # the first alone). Five times one pixel's noise refused a dim edge of 2.6 DN in 0.52 DN of noise as "no edge"
+    if not rise > max(5 * noise * np.sqrt(2.0 / k), 3 * noise, 1e-9 * np.abs(a).max()):
         raise ParameterError("image", f"no edge found: the sides differ by {rise:.3g}, against noise of {noise:.3g}; "
                              "expected one straight slanted edge between two flat regions")
     y = np.arange(rows)

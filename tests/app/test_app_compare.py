@@ -644,3 +644,29 @@ def test_the_report_draws_each_metrics_maps_on_the_scale_the_page_shows_them():
     assert page_tops["S-CIELAB"] != page_tops["CIELAB"]
     assert f"CIELAB dE map (0 to {page_tops['CIELAB']:g})" in text
     assert f"S-CIELAB dE map (0 to {page_tops['S-CIELAB']:g})" in text
+
+
+def test_designs_record_the_light_they_were_computed_under_when_it_changes_meanwhile(monkeypatch):
+    """The light moved while a design computed (the tab hidden, its refresh held): the designs after it were
+    computed on the scene under the old level but recorded the new one, and shown at the old level as such."""
+    import camsim_explorer.compare as module
+    from camsim_explorer.shown import WhenShown
+
+    state = ExplorerState()
+    gate = WhenShown(shown=True)
+    view = CompareView(state, when_shown=gate)
+    real, calls = module.evaluate_design, []
+
+    def evaluate(params, name, **kw):
+        calls.append((name, params["light"]))
+        if len(calls) == 1:  # while A computes: the student leaves the tab and moves the light
+            gate.show(False)
+            state.light = 0.25
+        return real(params, name, **kw)
+
+    monkeypatch.setattr(module, "evaluate_design", evaluate)
+    base = state.design_params()
+    state.pinned = [{"name": "A", "params": dict(base, noise_sigma=3.0)}, {"name": "B", "params": dict(base, noise_sigma=5.0)}]
+    assert calls == [("A", 1.0), ("B", 1.0)]
+    for key, result in view.store._items.items():
+        assert result.params["light"] == key[0][2] == 1.0

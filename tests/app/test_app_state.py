@@ -107,6 +107,10 @@ def test_an_upload_with_negative_radiance_loads_clipped_and_says_so(state):
     nan = cube.copy()
     nan[0, 0, 0] = np.nan
     assert not state.add_upload("nan.npz", _npz_bytes(nan)) and "NaN" in state.message  # still refused
+    after_chart = ExplorerState()
+    after_chart.scene = "macbeth"  # a chart: fitted and auto-exposed; its exposure put back when the upload is picked
+    assert after_chart.add_upload("dark.npz", _npz_bytes(cube)), after_chart.message
+    assert "Exposure 0.1 s again" in after_chart.notice and "4 negative radiance values" in after_chart.notice
 
 
 def test_a_file_uploaded_again_under_its_name_is_computed_anew(state):

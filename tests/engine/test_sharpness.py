@@ -192,3 +192,7 @@ def test_noise_alone_is_not_taken_for_an_edge():
             field += np.linspace(0, 0.2, 160)[None, :]  # a ramp of a tenth of the noise across the frame
         with pytest.raises(ParameterError):
             slanted_edge_mtf(np.round(field))
+    for seed in range(20):  # a ramp of 2 sigma across a 200 px field: 35 in 40 were measured with the rise held
+        field = 100 + np.random.default_rng(seed).standard_normal((200, 200)) + np.linspace(0, 2, 200)[None, :]
+        with pytest.raises(ParameterError, match="no edge"):
+            slanted_edge_mtf(field)
