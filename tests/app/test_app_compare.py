@@ -600,10 +600,11 @@ def test_pinned_designs_are_computed_on_the_scene_under_the_light_level_in_force
 
 @pytest.mark.parametrize("metric", ["S-CIELAB", "CIELAB"])
 def test_the_live_design_stays_in_the_comparison_whatever_map_the_page_shows(metric):
-    """With designs pinned the live design is scored by both maps: in S-CIELAB it had no CIELAB map and left the
+    """On the Compare tab the live design is scored by both maps: in S-CIELAB it had no CIELAB map and left the
     comparison, its histogram and its report without a word; in CIELAB its S-CIELAB cells read "n/a"."""
     state = ExplorerState(metric=metric)
     view = CompareView(state)
+    state.tab = "compare"  # as the page sets it when the tab is opened
     view.pin("A")
     state.noise_sigma = 4.0  # the live design now differs from A
     alone = evaluate_design(state.design_params(), "live")
@@ -614,9 +615,13 @@ def test_the_live_design_stays_in_the_comparison_whatever_map_the_page_shows(met
     assert live["measures"]["cielab"] == alone.measures["cielab"]
     assert live["measures"]["scielab"] == alone.measures["scielab"]
     assert status["hist_curves"] == 2
-    shown = state.result.scielab if metric == "S-CIELAB" else state.result.delta_e  # the Results tab's own map
-    assert float(np.mean(shown)) == pytest.approx(live["measures"][metric.lower().replace("-", "")]["mean"])
     assert "live" in view.report_bytes().getvalue().decode()
+    state.tab = "results"  # off the Compare tab a change makes the page's map alone (the other costs 1.6x a change)
+    state.noise_sigma = 5.0
+    assert (state.result.scielab is None) == (metric == "CIELAB") and (state.result.delta_e is None) == (metric != "CIELAB")
+    state.tab = "compare"  # back: the map it lacks is made, and the live design is compared again
+    assert state.result.scielab is not None and state.result.delta_e is not None
+    assert "live" in [d["name"] for d in json.loads(view.status.object)["designs"]]
 
 
 def test_the_report_draws_each_metrics_maps_on_the_scale_the_page_shows_them():
