@@ -113,15 +113,22 @@ def reach(method, tile, **options):
 def saturation_level(image):
     """The value (or one per sensor class) at which ``image``'s raw clipped, in the units of its data.
 
-    ``full_scale`` while the image still carries its pedestal, ``full_scale -
-    black_level`` once processing subtracted it (``extra["saturation"]``);
-    ``None`` for an image without a bit depth, which no ADC clipped.
+    The ADC's: ``full_scale`` while the image still carries its pedestal, ``full_scale - black_level`` once
+    processing subtracted it (``extra["saturation"]``). A simulated electron-level sensor's charge saturates at
+    its full well (``extra["sensor_saturation"]``, above the black level), which may come first, and is the only
+    clip of an unquantized one. ``None`` for an image that nothing clipped (unquantized, no full well).
     """
-    if image.full_scale is None:
-        return None
-    if not np.any(np.asarray(image.black_level, float)) and "saturation" in image.extra:
-        return image.extra["saturation"]
-    return image.full_scale
+    adc = None
+    if image.full_scale is not None:
+        adc = image.full_scale
+        if not np.any(np.asarray(image.black_level, float)) and "saturation" in image.extra:
+            adc = image.extra["saturation"]
+    well = image.extra.get("sensor_saturation")
+    if well is None:
+        return adc
+    well = float(well) + np.asarray(image.black_level, float)  # 0 once the pedestal is subtracted
+    level = well if adc is None else np.minimum(np.asarray(adc, float), well)
+    return float(level) if np.ndim(level) == 0 else tuple(float(v) for v in np.ravel(level))
 
 
 def clipped_samples(image):
@@ -143,8 +150,8 @@ def clipped_samples(image):
         level = level[tile_index_map(image.tile, data.shape[:2])]
     elif level.ndim and data.ndim == 3 and data.shape[2] != level.size:
         return None
-    # quantized values: a half step below the full scale is the full scale. The maximum first: an image that
-    # did not clip (the usual case) costs one reduction and no mask
+    # quantized values: a half step below the full scale is the full scale (the full well's level already has its
+    # margin for read noise). The maximum first: an image that did not clip (the usual case) costs one reduction
     half = 0.5 if image.quantized else 0.0
     if data.size == 0 or not np.nanmax(data - level if level.ndim else data) >= (-half if level.ndim else float(level) - half):
         return None

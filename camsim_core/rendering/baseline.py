@@ -79,7 +79,7 @@ def _sensor_planes(image):
 
 
 def clipped_pixels(image):
-    """(H, W) boolean: the pixels of a camera image whose raw clipped at the ADC's full scale, or ``None``.
+    """(H, W) boolean: the pixels of a camera image whose raw clipped (at the ADC's full scale or a full well), or ``None``.
 
     A demosaiced image carries them (``extra["clipped"]``, set by
     :func:`camsim_core.demosaic`: the clipped samples widened by the
@@ -88,7 +88,8 @@ def clipped_pixels(image):
     A full-colour image straight from the camera is measured here, a pixel
     counting as clipped when any of its sensors is at full scale
     (:func:`camsim_core.demosaicing.clipped_samples`). An unquantized image
-    has no ADC to clip it.
+    has no ADC to clip it; a simulated electron-level sensor's full well
+    clips it all the same (:func:`camsim_core.demosaicing.saturation_level`).
     """
     if "clipped" in image.extra or "demosaic" in image.extra:
         return image.extra.get("clipped") if image.extra.get("clipped_of") is image.data else None
