@@ -1081,6 +1081,10 @@ class CompareView:
         applied = [applied_parameters(r.params) for r in results]  # a parameter the camera does not use: a dash
         rows = [f"<tr><th>{html_text(k)}</th>" + "".join(f"<td>{_applied_text(p[k])}</td>" for p in applied) + "</tr>"
                 for k in differ]
+        if any(r.flags for r in results):  # a black, empty or clipped frame: its scores are not good ones
+            cells = "".join(f'<td class="flag" style="color:#c00000">{html_text("; ".join(r.flags))}</td>' if r.flags
+                            else "<td></td>" for r in results)
+            rows.append(f'<tr class="measure" data-measure="exposure"><th>exposure warning</th>{cells}</tr>')
         for metric, key in (("dE", "cielab"), ("S-CIELAB dE", "scielab")):
             for stat, label in (("mean", "mean"), ("median", "median"), ("p95", "95th pct")):
                 cells = "".join(
@@ -1297,7 +1301,7 @@ class CompareView:
         sweep = self.state.sweep
         self.status.object = json.dumps({
             "designs": [{"name": r.name, "camera": r.params.get("camera"), "measures": r.measures,
-                         "shape": list(r.shape)} for r in results],
+                         "shape": list(r.shape), "flags": list(r.flags)} for r in results],
             "pinned": [p["name"] for p in self.state.pinned],
             "differ": differing_parameters([r.params for r in results], skip=_SHARED) if results else [],
             "busy": self._computing,

@@ -425,6 +425,9 @@ class DesignResult:
     measures: dict = field(default_factory=dict)
     quality: dict = field(default_factory=dict)
     seconds: float = 0.0
+    #: The warnings its scores must carry (a black, empty or clipped frame: :attr:`camsim_core.cache.Result.exposure`'s
+    #: ``flags``), shown beside them wherever they are shown.
+    flags: tuple = ()
     #: What measures ``quality`` when it was left for later (``evaluate_design(quality="later")``): the pipeline's
     #: result and the monitor, held until :meth:`measure_quality` runs; None once measured (or never left).
     quality_inputs: tuple | None = field(default=None, repr=False, compare=False)
@@ -590,6 +593,7 @@ def result_from_pipeline(res, params, name, processing, quality=True):
         delta_e=np.asarray(res.delta_e, float),
         scielab=None if res.scielab is None else np.asarray(res.scielab, float),
         seconds=res.seconds,
+        flags=tuple(res.exposure.flags) if res.exposure is not None else (),
     )
     out.measures = {"cielab": measures(out.delta_e)}
     if out.scielab is not None:

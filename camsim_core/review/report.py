@@ -223,7 +223,8 @@ def report_html(results, *, sweep=None, points=None, ab=None, title="camsim desi
         m = r.measures
         s = m.get("scielab", {})
         cells = "".join(quality_cell(r, k) for k in quality)
-        rows.append(f"<tr><th>{e(r.name)}</th>{_cell(m['cielab']['mean'])}{_cell(m['cielab']['median'])}"
+        warn = "".join(f' <strong class="flag" style="color:#c00000">&#9888; {e(f)}</strong>' for f in r.flags)
+        rows.append(f"<tr><th>{e(r.name)}{warn}</th>{_cell(m['cielab']['mean'])}{_cell(m['cielab']['median'])}"
                     f"{_cell(m['cielab']['p95'])}{_cell(s.get('mean'))}{_cell(s.get('median'))}{_cell(s.get('p95'))}"
                     f"{cells}</tr>")
     measures_table = (
@@ -272,7 +273,8 @@ def report_html(results, *, sweep=None, points=None, ab=None, title="camsim desi
         f'<h2>dE histograms</h2><img class="plot" src="{_histogram_uri(results, metric, colours)}" alt="{metric} dE histograms">',
     ]
     data = {"camsim_version": _version(), "scenes": scenes, "metric": metric, "scale_top": top, "scale_tops": tops,
-            "designs": [{"name": r.name, "params": r.params, "measures": r.measures} for r in results]}
+            "designs": [{"name": r.name, "params": r.params, "measures": r.measures, "flags": list(r.flags)}
+                        for r in results]}
     if ab is not None and len(results) >= 2:
         a, b = results[0], results[1]
         ab_top = shared_scale([ab["delta_e"]])

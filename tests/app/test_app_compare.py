@@ -675,3 +675,28 @@ def test_designs_record_the_light_they_were_computed_under_when_it_changes_meanw
     assert calls == [("A", 1.0), ("B", 1.0)]
     for key, result in view.store._items.items():
         assert result.params["light"] == key[0][2] == 1.0
+
+
+def test_a_black_or_clipped_design_carries_its_warning_into_the_table_and_the_report():
+    """Pinned at 0.1 s, 10 s and 1e-4 s, the DCS-200 was listed at 12.15, 77.15 and 67.44 with no word: a frame that
+    recorded nothing ranked better than a clipped one. The Results tab's warnings go with the scores. The flags are
+    checked against the raw data: its share of pixels at the full scale, and at 0."""
+    import camsim_core as cs
+
+    state = ExplorerState()
+    view = CompareView(state)
+    for name, exposure in (("ok", 0.1), ("over", 10.0), ("black", 1e-4)):
+        state.exposure = exposure
+        view.pin(name)
+    status = {d["name"]: d for d in json.loads(view.status.object)["designs"]}
+    for name, exposure in (("ok", 0.1), ("over", 10.0), ("black", 1e-4)):
+        raw = cs.simulate(cs.load_scene("cacaphony290"), cs.review.camera_from_params(dict(state.design_params(),
+                                                                                          exposure=exposure)))
+        data = np.asarray(raw.data)
+        clipped, black = float(np.mean(data >= 254.5)), float(np.mean(data <= 0.5))
+        flags = " ".join(status[name]["flags"])
+        assert ("clipped" in flags) == (clipped > 0.5) and (("black" in flags) or ("empty" in flags)) == (black > 0.5), \
+            (name, flags, clipped, black)
+    assert "clipped" in view.table.object and 'data-measure="exposure"' in view.table.object
+    page = view.report_bytes().getvalue().decode()
+    assert page.count('class="flag"') == len(status["over"]["flags"]) + len(status["black"]["flags"])
