@@ -1035,6 +1035,9 @@ class ResultsView:
                                  f"({', '.join(steps) or 'nothing re-run'})</p>")
         camera = getattr(res, "camera", None)
         clipped, dark = self._memo("exposure", res.raw, lambda raw: exposure_warnings(raw, camera))
+        unbounded = not res.raw.quantized and saturation_level(camera) is None
+        if unbounded:  # no full scale to be a share of ("mean level 25018 % of full scale") nor to be dark in
+            dark = 0.0
         notes = []
         if clipped > 0.01:
             where = "at the full well or full scale" if saturation_level(camera) is not None else "at full scale"
@@ -1044,9 +1047,13 @@ class ResultsView:
             notes.append(f"⚠ {100 * dark:.0f} % of pixels are in the lowest 2 % of the digital range: "
                          "under-exposed (try Auto exposure)")
         level = self._memo("level", res.raw, lambda raw: mean_level(raw, getattr(res, "camera", None)))
-        self.warnings.object = "<p>" + (" · ".join(notes) or
-                                        f"Clipped {100 * clipped:.1f} % · in the lowest 2 % of levels "
-                                        f"{100 * dark:.1f} %") + f" · mean level {100 * level:.0f} % of full scale</p>"
+        if unbounded:  # the chapter's cameras at 0 bits: the raw in digital units, unbounded
+            self.warnings.object = (f"<p>Unquantized, in digital units: nothing clips and there is no full scale · "
+                                    f"mean level {255 * level:.4g} DU</p>")
+        else:
+            self.warnings.object = "<p>" + (" · ".join(notes) or
+                                            f"Clipped {100 * clipped:.1f} % · in the lowest 2 % of levels "
+                                            f"{100 * dark:.1f} %") + f" · mean level {100 * level:.0f} % of full scale</p>"
         self.status_data = {
             "params": getattr(res, "params", self.state.to_dict()),
             "computing": busy,

@@ -30,7 +30,8 @@ when all are):
   its range, where its full well puts it at 5.6 %).
 
 Flags: a *black frame* when at least half the pixels are at the black
-level; *under-exposed* when the mean signal is below 2 % of the range;
+level; *under-exposed* when the mean signal is below 2 % of the range (a
+frame with a range: unquantized in digital units, it has none);
 *clipped* when at least 1 % of the pixels are at full scale or at the
 full well (*fully clipped* from 99 %); an *empty frame* has no pixels.
 """
@@ -65,6 +66,10 @@ class ExposureMeasures:
     signal: float
     #: What a clipped pixel is at: "full scale" (the ADC's), or "the full well" (a sensor saturating below it).
     limit: str = "full scale"
+    #: Whether the frame has a range to be a share of: an ADC's or a full well's. Unquantized in digital units (the
+    #: chapter's cameras at 0 bits) it has none: ``signal`` is then a share of 255, the display's convention, and
+    #: no frame is under-exposed by it (the DCS-200 at a thousandth of its light was, with the dE of a fair one).
+    bounded: bool = True
 
     @property
     def flags(self):
@@ -74,7 +79,7 @@ class ExposureMeasures:
             return ("empty frame: no pixels",)
         if self.black >= BLACK_SHARE:
             out.append(f"black frame: {_percent(self.black)} of pixels at the black level")
-        elif self.signal < DIM_SIGNAL:
+        elif self.signal < DIM_SIGNAL and self.bounded:
             out.append(f"under-exposed: mean signal {_percent(self.signal)} of full scale")
         if self.clipped >= 0.99:
             out.append(f"fully clipped: {_percent(self.clipped)} of pixels at {self.limit}")
@@ -84,7 +89,7 @@ class ExposureMeasures:
 
     def as_dict(self):
         return {"pixels": self.pixels, "clipped": self.clipped, "black": self.black, "signal": self.signal,
-                "limit": self.limit, "flags": list(self.flags)}
+                "limit": self.limit, "bounded": self.bounded, "flags": list(self.flags)}
 
 
 def _percent(share):
@@ -184,7 +189,8 @@ def exposure_measures(raw, camera=None):
         signal = (float(np.mean(data, dtype=np.float64)) - float(black)) / max(float(top), 1e-12)
     else:
         signal = float(np.mean((data - black) / np.maximum(top, 1e-12)))
-    return ExposureMeasures(pixels, float(np.mean(clipped)), float(np.mean(at_black)), signal, limit)
+    return ExposureMeasures(pixels, float(np.mean(clipped)), float(np.mean(at_black)), signal, limit,
+                            bounded=full is not None or well is not None)
 
 
 def exposure_flags(raw, camera=None):

@@ -872,6 +872,12 @@ def test_the_exposure_line_claims_no_clipping_where_nothing_clips_and_no_under_e
     view = ResultsView(state)
     state.exposure = 4 * state.exposure  # anything: unquantized, nothing clips
     assert "clipped (" not in view.warnings.object
+    state.light = 1000.0  # "mean level 25018 % of full scale": there is none; said in digital units
+    assert "% of full scale" not in view.warnings.object and "no full scale" in view.warnings.object
+    raw_mean = float(np.mean(np.asarray(state.result.raw.data, float)))
+    assert f"mean level {raw_mean:.4g} DU" in view.warnings.object
+    state.light = 0.001  # a thousandth of the light, noiseless and unquantized: the same dE, nothing under-exposed
+    assert "under-exposed" not in view.stats.object and "under-exposed" not in view.warnings.object
     state = ExplorerState(scene="macbeth")
     view = ResultsView(state)
     state.auto_expose()
