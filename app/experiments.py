@@ -89,7 +89,9 @@ class ExperimentsView:
         self.button.on_click(self._start)
         self.message = pn.pane.Markdown(
             "A small version of Figure 1.14 (one seed, cacaphony290, no mosaic): cameras "
-            "(1 - alpha) x cones + alpha x DCS-200. The full sweep: `camsim experiment sensors`.",
+            "(1 - alpha) x cones + alpha x DCS-200. The chapter's set-up, not the sidebar's: 3.32 m, 8 bits, one "
+            "exposure for every camera (its most sensitive at 90 % of the range), the chapter's ideal image, "
+            "S-CIELAB at the camera's 102.6 samples/deg. The full sweep: `camsim experiment sensors`.",
             css_classes=["camsim-exp-message"])
         self.curves = {m: _panel(m) for m in METHODS}
         self.plots = [pn.Column(pn.pane.Bokeh(c.figure), css_classes=["camsim-exp-plot"], margin=0)
