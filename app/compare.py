@@ -542,7 +542,7 @@ class CompareView:
         self._update_shown = when_shown(lambda: self._safely(self.update))
         # the light level is the scene's (the designs are computed on the scene under it): a design of another
         # level is another result (its dE was the old level's, kept and shown as the new level's)
-        state.param.watch(lambda e: refresh(), ["scene", "viewing", "light"])
+        state.param.watch(lambda e: (self._sweep_outdated(), refresh()), ["scene", "viewing", "light"])
         state.param.watch(lambda e: request_update(), ["result", "metric"])
         state.param.watch(self._on_sweep, ["sweep"])
         self._on_pinned()
@@ -1187,6 +1187,21 @@ class CompareView:
         if self.state.pinned:
             return [(p["name"], {**p["params"], **self._shared()}) for p in self.state.pinned]
         return [(LIVE, self.state.design_params())]
+
+    def _sweep_outdated(self):
+        """The scene, its light or the viewing changed: the sweep's points were of the old one (a report mixed them
+        with designs computed on the new one). Dropped, and said; Run computes them again."""
+        if not self.points and self._sweep_cancel is None:
+            return
+        if self._sweep_cancel is not None:
+            self._sweep_cancel.set()
+            self._sweep_cancel = None  # points still coming are dropped (``_add_point``)
+        self.points = []
+        self.sweep_total = 0
+        self.sweep_progress.value = 0
+        self.sweep_message.object = "The scene, its light or the viewing changed since the sweep: run it again."
+        if self._built and self.state.sweep:
+            self.show_sweep()
 
     def start_sweep(self):
         sweep = self.state.sweep

@@ -700,3 +700,26 @@ def test_a_black_or_clipped_design_carries_its_warning_into_the_table_and_the_re
     assert "clipped" in view.table.object and 'data-measure="exposure"' in view.table.object
     page = view.report_bytes().getvalue().decode()
     assert page.count('class="flag"') == len(status["over"]["flags"]) + len(status["black"]["flags"])
+
+
+def test_a_sweep_of_the_scene_before_is_dropped_when_the_light_changes():
+    """The sweep's points stayed at the old light level while the designs were computed at the new one, and the
+    report mixed them; they are dropped, said so, and a new run computes them at the new level."""
+    state = ExplorerState()
+    view = CompareView(state)
+    view.pin("A")
+    state.sweep = {"parameter": "noise_sigma", "values": [0.0, 4.0]}
+    assert len(view.points) == 2
+    state.light = 0.5
+    assert view.points == [] and "run it again" in view.sweep_message.object
+    import html as html_module
+    import re
+
+    text = view.report_bytes().getvalue().decode()
+    data = json.loads(html_module.unescape(re.search(
+        r'<script type="application/json" id="camsim-report-data">(.*?)</script>', text, re.S).group(1)))
+    assert "sweep" not in data  # no points of the old light beside designs of the new
+    view.start_sweep()
+    at_half = evaluate_design(dict(state.pinned[0]["params"], light=0.5, noise_sigma=4.0), "A")
+    point = next(p for p in view.points if p.value == 4.0)
+    assert point.measures["cielab"] == at_half.measures["cielab"]
