@@ -783,9 +783,13 @@ class ExplorerState(param.Parameterized):
             return
         lo, hi = self.param.exposure.bounds
         self.exposure = float(np.clip(value, lo, hi))
-        clipped = "" if lo <= value <= hi else f" ({value:.4g} s is outside {lo:g}-{hi:g} s: limited)"
-        self.notice = (f"Auto exposure: {self.exposure:.4g} s puts the scene's brightest 0.5 % at 90 % of full "
-                       f"scale{clipped}. It maximises signal, not colour fidelity: dE can rise.")
+        if lo <= value <= hi:
+            self.notice = (f"Auto exposure: {self.exposure:.4g} s puts the scene's brightest 0.5 % at 90 % of full "
+                           "scale. It maximises signal, not colour fidelity: dE can rise.")
+        else:  # the bright end where the limit puts it (responses are linear in the exposure), not the 90 % asked
+            self.notice = (f"Auto exposure: {value:.4g} s would put the scene's brightest 0.5 % at 90 % of full scale; "
+                           f"exposures run {lo:g}-{hi:g} s, so {self.exposure:.4g} s puts it at "
+                           f"{90 * self.exposure / value:.3g} %. It maximises signal, not colour fidelity: dE can rise.")
 
     def add_upload(self, filename, content):
         """Validate and select an uploaded scene; on failure set ``message`` and keep the current scene.

@@ -886,3 +886,17 @@ def test_the_exposure_line_claims_no_clipping_where_nothing_clips_and_no_under_e
     assert dark > 25  # the surround: dark content, not a dark frame
     state.exposure = state.exposure / 20  # now the frame is dim
     assert "under-exposed (try Auto exposure)" in view.warnings.object
+
+
+def test_auto_exposure_past_its_limit_says_where_the_limit_puts_the_bright_end():
+    """16 bits on the DCS-200 ask 35 s for 90 % of full scale; the exposure stops at 10 s, and the notice said
+    "10 s puts the scene's brightest 0.5 % at 90 % of full scale" (it puts them at about a quarter)."""
+    state = ExplorerState(bits=16)
+    state.auto_expose()
+    assert state.exposure == state.param.exposure.bounds[1]
+    said = float(state.notice.split(" puts it at ")[1].split(" %")[0])
+    raw = state.result.raw
+    data = np.asarray(raw.data, float)
+    brightest = max(np.percentile(data[i::2, j::2], 99.5) for i in (0, 1) for j in (0, 1))  # per sensor class
+    assert said == pytest.approx(100 * brightest / raw.full_scale, abs=2.0)
+    assert "at 90 % of full scale;" in state.notice and "would put" in state.notice
