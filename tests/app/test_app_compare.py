@@ -640,6 +640,10 @@ def test_the_report_draws_each_metrics_maps_on_the_scale_the_page_shows_them():
         state.metric = metric
         status = json.loads(view.status.object)
         page_tops[metric] = status["scale_top"]
+        # the rule, computed here: the largest of the designs' 99th percentiles, rounded up to 5 (at least 5)
+        maps = [r.delta_e if metric == "CIELAB" else r.scielab for r in view.designs()]
+        expected = max(5.0, 5.0 * np.ceil(max(float(np.percentile(m, 99)) for m in maps) / 5.0))
+        assert status["scale_top"] == expected
         assert all(v.figure.title.text.endswith(f" dE, 0 to {status['scale_top']:g}")
                    for v, slot in zip(view.de_views, view.slots) if slot.visible)
         text = view.report_bytes().getvalue().decode()
