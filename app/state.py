@@ -427,6 +427,13 @@ class ExplorerState(param.Parameterized):
         if self._updating:
             return
         names = {e.name for e in events}
+        if "alpha" in names and round(self.alpha, 3) != self.alpha:  # mixtures are made in steps of 0.001
+            asked, self._updating = self.alpha, True
+            try:
+                self.alpha = round(asked, 3)
+            finally:
+                self._updating = False
+            self._add_notice(f"Alpha {asked:g} taken as {self.alpha:g}: mixtures are made in steps of 0.001.")
         if "camera" in names and "sensor" not in names and self.sensor:
             self._updating = True  # a new camera starts from its own sensor sheet
             try:

@@ -283,6 +283,8 @@ def check_params(values, where="design"):
             low, high = spec
             if not low <= value <= high:
                 raise ParameterError(label, f"must lie in [{low:g}, {high:g}], got {value!r}")
+            if name == "alpha":  # the mixture the camera is made of (camera_from_params): what ran is what is listed
+                value = round(value, 3)
         out[name] = value
     return out
 

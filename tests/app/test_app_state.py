@@ -900,3 +900,16 @@ def test_auto_exposure_past_its_limit_says_where_the_limit_puts_the_bright_end()
     brightest = max(np.percentile(data[i::2, j::2], 99.5) for i in (0, 1) for j in (0, 1))  # per sensor class
     assert said == pytest.approx(100 * brightest / raw.full_scale, abs=2.0)
     assert "at 90 % of full scale;" in state.notice and "would put" in state.notice
+
+
+def test_an_alpha_past_three_decimals_is_taken_as_the_mixture_that_runs():
+    """Mixtures are made in steps of 0.001: alpha 0.1234 ran as mixture-0.123 while the page, the parameters file and
+    the report listed 0.1234. The value shown and listed is the one that ran, and the page says so."""
+    from camsim_core.review.design import check_params
+
+    state = ExplorerState(camera="mixture")
+    state.alpha = 0.1234
+    assert state.alpha == 0.123 and state.result.params["alpha"] == 0.123
+    assert "Alpha 0.1234 taken as 0.123" in state.notice
+    assert check_params({"alpha": 0.1234})["alpha"] == 0.123
+    assert cc.review.evaluate_design({"camera": "mixture", "alpha": 0.1234}, "x", quality=False).params["alpha"] == 0.123
