@@ -605,7 +605,8 @@ class ExplorerState(param.Parameterized):
         snapped = self.wavelength_in_scene(job["scene"])
         if snapped:
             job["params"]["wavelength"] = self.wavelength
-        job["notice"], self._next_notice = " ".join(n for n in (self._next_notice, snapped) if n), ""
+            self._add_notice(snapped)
+        job["notice"], self._next_notice = self._next_notice, ""
         return job
 
     def _add_notice(self, text):

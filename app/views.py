@@ -1035,7 +1035,8 @@ class ResultsView:
                                  f"({', '.join(steps) or 'nothing re-run'})</p>")
         camera = getattr(res, "camera", None)
         clipped, dark = self._memo("exposure", res.raw, lambda raw: exposure_warnings(raw, camera))
-        unbounded = not res.raw.quantized and saturation_level(camera) is None
+        exposure = getattr(res, "exposure", None)  # the engine's measures of the frame (made once per raw)
+        unbounded = exposure is not None and not exposure.bounded
         if unbounded:  # no full scale to be a share of ("mean level 25018 % of full scale") nor to be dark in
             dark = 0.0
         notes = []
