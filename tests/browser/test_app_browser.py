@@ -439,11 +439,24 @@ def test_save_and_share_downloads_what_the_page_shows_and_loads_parameters(page,
     assert page.params()["noise_sigma"] == 3.0
 
 
-def test_back_and_forward_show_the_page_of_the_address_they_go_to(page):
+@pytest.fixture
+def own_page(browser, server):
+    """A page of its own, with a history of its own: the module's page (``shared_page``) holds the addresses of
+    the tests before (going back twice from this test once landed on another test's ``noise_sigma=3``)."""
+    from app_helpers import Page
+
+    pg = Page(browser, server)
+    yield pg
+    pg.close()
+
+
+def test_back_and_forward_show_the_page_of_the_address_they_go_to(own_page):
     """Panel's Location writes each design into the address but does not follow the browser's history: back and
     forward changed the address and left the page (design, dE, tab) as it was. Each now shows its address's
     page, as a link does."""
     from app_helpers import wait_until
+
+    page = own_page
 
     def address():  # read in the page (Playwright's own URL may lag a same-document move)
         return page.page.evaluate("() => window.location.href")
