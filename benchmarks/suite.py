@@ -2,6 +2,7 @@
 
 Run: ``python benchmarks/suite.py`` (the whole suite, as ``make test`` runs it: about 10-13 minutes on 2 cores),
 or ``python benchmarks/suite.py tests/browser`` (any pytest arguments: the files or options to run instead).
+``CAMSIM_SUITE_KEEP=rows.tsv`` keeps every test's row (node id, CPU s, wall s, CPU by process).
 
 Each test's CPU is that of its worker's processes while the test ran (its setup, call and teardown): the worker,
 its servers (``camsim serve`` subprocesses and their upload readers), Playwright's driver and Chromium's processes,
@@ -173,6 +174,9 @@ def main(argv):
         for part in filter(None, kinds.split(";")):
             name, value = part.split("=")
             by_kind[name] += float(value)
+    keep = os.environ.get("CAMSIM_SUITE_KEEP")
+    if keep:  # every test's row (node id, CPU s, wall s, CPU by process), for a closer look
+        Path(keep).write_text(Path(out).read_text())
     os.unlink(out)
     if not rows:
         print("no test ran")
