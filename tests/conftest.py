@@ -15,20 +15,22 @@ import pytest
 import camsim_core as cs
 
 
-#: Test files by the time they took (worker seconds, two runs of the whole suite on three workers, 2026-11-27),
-#: longest first. ``make test`` hands whole files to its workers in collection order
-#: (``--dist loadfile --no-loadscope-reorder``): starting the longest first leaves the short ones to fill in at
-#: the end, where xdist's own order (files with the most tests first) left two or three browser files of a
-#: minute or more to run last, on one worker, while the others sat idle. A file missing from the list (new, or
-#: renamed) runs after these, browser files before the others; a stale list costs time, never a test.
+#: Test files by the time they took (worker seconds, runs of the whole suite on three workers, 2026-11-27 and
+#: 2026-11-29), longest first, the browser's files before the others: ``make test`` hands whole files to its
+#: workers in collection order (``--dist loadfile --no-loadscope-reorder``). Starting the longest first leaves the
+#: short ones to fill in at the end, where xdist's own order (files with the most tests first) left two or three
+#: browser files of a minute or more to run last, on one worker, while the others sat idle; the browser's files
+#: in a row let a worker keep its browser open from one to the next (``_WorkerBrowser``). A file missing from the
+#: list (new, or renamed) runs after these, browser files before the others; a stale list costs time, never a test.
 LONGEST_FIRST = (
     "browser/test_input_fuzz_browser.py", "browser/test_page_serving_browser.py", "browser/test_app_browser.py",
     "browser/test_newcomer_browser.py", "browser/test_tab_walk_browser.py", "browser/test_xss_browser.py",
-    "app/test_build_off_loop.py", "browser/test_upload_browser.py", "browser/test_app_compare_browser.py",
-    "browser/test_server_hostile_browser.py", "app/test_wheel_install.py", "browser/test_app_monkey.py",
+    "browser/test_upload_browser.py", "browser/test_app_compare_browser.py", "browser/test_server_hostile_browser.py",
+    "browser/test_app_monkey.py", "browser/test_measures_browser.py", "browser/test_reader_errors_browser.py",
+    "app/test_build_off_loop.py", "app/test_wheel_install.py",
     "engine/test_scale.py", "engine/test_optics_fused.py", "engine/test_reader_fuzz_images.py",
-    "browser/test_measures_browser.py", "app/test_app_compare.py", "app/test_app_state.py",
-    "engine/test_scielab.py", "app/test_upload_isolation.py", "browser/test_reader_errors_browser.py",
+    "app/test_app_compare.py", "app/test_app_state.py",
+    "engine/test_scielab.py", "app/test_upload_isolation.py",
     "app/test_notebook.py",
 )
 _RANK = {name: i for i, name in enumerate(LONGEST_FIRST)}
@@ -49,8 +51,10 @@ def _file_rank(item):
 
 
 def pytest_collection_modifyitems(config, items):
-    """Longest test files first (:data:`LONGEST_FIRST`); a stable sort, so tests keep their order in a file."""
+    """Longest test files first (:data:`LONGEST_FIRST`); a stable sort, so tests keep their order in a file.
+    Notes the files whose tests use the worker's browser (:class:`_WorkerBrowser`)."""
     items.sort(key=_file_rank)
+    _BROWSER_FILES.update(item.path for item in items if _uses_shared_browser(item))
 
 
 @pytest.fixture(scope="session")
@@ -81,30 +85,89 @@ def chromium_profile(tmp_path_factory):
     return tmp_path_factory.mktemp("chromium-profile")
 
 
+class _WorkerBrowser:
+    """Debian's Chromium driven by Playwright, kept open by a worker from one browser test file to the next.
+
+    Launching it (its browser, GPU, zygote and utility processes, Playwright's driver) and closing it cost about
+    1.5-2 s of CPU, once per test file before. It is closed before any test that does not use it (the engine's
+    and the explorer's tests, files with a browser of their own) and at the end of the run: Playwright's sync
+    API holds an asyncio loop in the thread while it runs, and those tests use asyncio or start Playwright
+    themselves."""
+
+    def __init__(self):
+        self._playwright = self.context = None
+
+    def open(self, profile):
+        if self.context is None:
+            from app_helpers import CHROMIUM_ARGS, VIEWPORT, chromium_path
+            from playwright.sync_api import sync_playwright
+
+            path = chromium_path()  # RuntimeError: no Chromium (the fixture fails the test with it)
+            self._playwright = sync_playwright().start()
+            try:
+                self.context = self._playwright.chromium.launch_persistent_context(
+                    profile, executable_path=path, args=CHROMIUM_ARGS, viewport=VIEWPORT)
+            except BaseException:
+                self.close()
+                raise
+        return self.context
+
+    def close(self):
+        context, playwright, self.context, self._playwright = self.context, self._playwright, None, None
+        try:
+            if context is not None:
+                context.close()
+        finally:
+            if playwright is not None:
+                playwright.stop()
+
+
+_WORKER_BROWSER = _WorkerBrowser()
+#: The test files with a test that uses it (the others close it: ``pytest_runtest_setup``).
+_BROWSER_FILES = set()
+#: The ``baseid`` of this conftest's fixtures: its folder, relative to the rootdir.
+_CONFTEST_BASEID = "tests"
+
+
+def _uses_shared_browser(item):
+    """Whether ``item`` uses this conftest's ``browser`` fixture (itself, or through ``page`` or ``shared_page``),
+    not a test file's own (a fixture's ``baseid`` is the folder of its conftest, or its test file)."""
+    defs = getattr(getattr(item, "_fixtureinfo", None), "name2fixturedefs", {}).get("browser")
+    return bool(defs) and defs[-1].baseid == _CONFTEST_BASEID
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item):
+    """Close the worker's browser before the tests of a file that does not use it (:class:`_WorkerBrowser`).
+    Within a file that does, it stays open (the file's ``browser`` is its context until the file ends)."""
+    if _WORKER_BROWSER.context is not None and item.path not in _BROWSER_FILES:
+        _WORKER_BROWSER.close()
+
+
+def pytest_sessionfinish(session):
+    _WORKER_BROWSER.close()
+
+
 @pytest.fixture(scope="module")
 def browser(chromium_profile):
-    """Debian's Chromium driven by Playwright, one per test module (files that need other launch options
-    define their own ``browser``), as its one browser context: the worker's profile (``chromium_profile``),
-    kept on disk from module to module as a student's browser keeps its own.
+    """Debian's Chromium driven by Playwright (:class:`_WorkerBrowser`, open from one browser test file to the
+    next), as its one browser context: the worker's profile (``chromium_profile``), kept on disk as a student's
+    browser keeps its own. Files that need other launch options define their own ``browser``. The pages a file
+    leaves open are closed after it.
 
     A profile on disk keeps what the browser compiled of Bokeh's and Panel's scripts (V8's code cache, which a
     private context such as Playwright's ``new_context`` does not keep): a page load then took 1.2-1.4 s of the
     renderer's CPU and 0.4 s of the browser process's, against 2.1-2.6 s and 0.5-0.7 s in a private context
-    (seven loads each, 2026-11-28). Not one browser per run: Playwright's sync API holds an asyncio loop in the
-    thread while it runs, and later tests of the same worker use asyncio themselves."""
-    from app_helpers import CHROMIUM_ARGS, VIEWPORT, chromium_path
-
+    (seven loads each, 2026-11-28)."""
     try:
-        path = chromium_path()
+        context = _WORKER_BROWSER.open(chromium_profile)
     except RuntimeError as exc:
         pytest.fail(str(exc))
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        context = p.chromium.launch_persistent_context(chromium_profile, executable_path=path, args=CHROMIUM_ARGS,
-                                                       viewport=VIEWPORT)
-        yield context
-        context.close()
+    before = set(context.pages)
+    yield context
+    for pg in context.pages:
+        if pg not in before:
+            pg.close()
 
 
 @pytest.fixture(scope="session")

@@ -18,8 +18,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from app_helpers import (ARTIFACTS, CHROMIUM_ARGS, FIGURES_JS, IMAGE_VIEWS, Page, chromium_path, eventually, figures,
-                         next_frames, shows_whole_image)
+from app_helpers import ARTIFACTS, FIGURES_JS, IMAGE_VIEWS, Page, eventually, figures, next_frames, shows_whole_image
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
 pytestmark = pytest.mark.browser
@@ -113,97 +112,91 @@ def _views_show_the_image(page, status, step, settle=20.0):
     eventually(check, timeout=settle)
 
 
-def test_random_walk_over_the_controls(server):
+def test_random_walk_over_the_controls(browser, server):
     rng = random.Random(SEED)
     ARTIFACTS.mkdir(exist_ok=True)
-    from playwright.sync_api import sync_playwright
+    page = Page(browser, server)
+    page.page.set_viewport_size({"width": 1920, "height": 1080})
+    try:
+        expected = dict(page.status()["params"])
+        walked = []
+        for step in range(1, STEPS + 1):
+            key = rng.choice(list(SELECTS) + ["distance", "metric", "alpha", "sensor"])
+            field = None
+            if key == "sensor" and expected["camera"] not in ("imx174", "phone-1.4um"):
+                # the fields are disabled for the chapter's cameras: go to an electron-level one first
+                key, value = "camera", rng.choice(["imx174", "phone-1.4um"])
+                page.select("w-camera", value)
+            elif key == "sensor":
+                header = page.page.locator(".card-header", has_text="Sensor (electrons)").first
+                if not page.page.locator(".w-sensor-well input").count():
+                    header.click()  # the card makes its fields when first opened
+                field = rng.choice(list(SENSOR))
+                css, values = SENSOR[field]
+                number = float(rng.choice(values))
+                page.type_number(css, number)
+                value = (field, number)
+            elif key == "distance":
+                value = round(rng.uniform(0.5, 10.0), 2)
+                page.type_number("w-distance", value)
+            elif key == "metric":
+                value = "S-CIELAB" if expected["metric"] == "CIELAB" else "CIELAB"
+                page.page.locator(".w-metric button", has_text=value).first.click()
+            elif key == "alpha" and expected["camera"] == "mixture":
+                value = round(rng.uniform(0, 1), 1)
+                page.type_number("w-alpha", value)
+            elif key == "alpha":
+                key, value = "camera", "mixture"
+                page.select("w-camera", value)
+            else:
+                css, values = SELECTS[key]
+                value = rng.choice([v for v in values if v != expected[key]])
+                if page.page.locator(f".{css} select").first.is_disabled():
+                    continue  # an inert control (e.g. the illuminant under baseline rendering)
+                page.select(css, value)
+            # settled: computed as set, or refused with the widget back at the value shown (an
+            # earlier refusal may still be on screen, so the message alone does not say this one came)
+            def settled(s, k=key, v=value):
+                if k == "sensor":  # the field is in the design's sensor text, or refused with the box put back
+                    return not s["computing"] and (_sensor_set(s, *v) or ("Refused" in page.alert_text() and
+                                                                          _box_number(page, SENSOR[v[0]][0]) != v[1]))
+                return not s["computing"] and (s["params"][k] == v or ("Refused" in page.alert_text() and
+                                                                       _widget_value(page, k) in (None, str(expected[k]))))
 
-    url = server
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=chromium_path(), args=CHROMIUM_ARGS)
-        page = Page(browser, url)
-        page.page.set_viewport_size({"width": 1920, "height": 1080})
-        try:
-            expected = dict(page.status()["params"])
-            walked = []
-            for step in range(1, STEPS + 1):
-                key = rng.choice(list(SELECTS) + ["distance", "metric", "alpha", "sensor"])
-                field = None
-                if key == "sensor" and expected["camera"] not in ("imx174", "phone-1.4um"):
-                    # the fields are disabled for the chapter's cameras: go to an electron-level one first
-                    key, value = "camera", rng.choice(["imx174", "phone-1.4um"])
-                    page.select("w-camera", value)
-                elif key == "sensor":
-                    header = page.page.locator(".card-header", has_text="Sensor (electrons)").first
-                    if not page.page.locator(".w-sensor-well input").count():
-                        header.click()  # the card makes its fields when first opened
-                    field = rng.choice(list(SENSOR))
-                    css, values = SENSOR[field]
-                    number = float(rng.choice(values))
-                    page.type_number(css, number)
-                    value = (field, number)
-                elif key == "distance":
-                    value = round(rng.uniform(0.5, 10.0), 2)
-                    page.type_number("w-distance", value)
-                elif key == "metric":
-                    value = "S-CIELAB" if expected["metric"] == "CIELAB" else "CIELAB"
-                    page.page.locator(".w-metric button", has_text=value).first.click()
-                elif key == "alpha" and expected["camera"] == "mixture":
-                    value = round(rng.uniform(0, 1), 1)
-                    page.type_number("w-alpha", value)
-                elif key == "alpha":
-                    key, value = "camera", "mixture"
-                    page.select("w-camera", value)
-                else:
-                    css, values = SELECTS[key]
-                    value = rng.choice([v for v in values if v != expected[key]])
-                    if page.page.locator(f".{css} select").first.is_disabled():
-                        continue  # an inert control (e.g. the illuminant under baseline rendering)
-                    page.select(css, value)
-                # settled: computed as set, or refused with the widget back at the value shown (an
-                # earlier refusal may still be on screen, so the message alone does not say this one came)
-                def settled(s, k=key, v=value):
-                    if k == "sensor":  # the field is in the design's sensor text, or refused with the box put back
-                        return not s["computing"] and (_sensor_set(s, *v) or ("Refused" in page.alert_text() and
-                                                                              _box_number(page, SENSOR[v[0]][0]) != v[1]))
-                    return not s["computing"] and (s["params"][k] == v or ("Refused" in page.alert_text() and
-                                                                           _widget_value(page, k) in (None, str(expected[k]))))
-
-                try:
-                    s = page.wait_for(settled, timeout=240)
-                except AssertionError as exc:
-                    raise AssertionError(f"step {step}: {key}={value!r} never settled (walk: {walked}); "
-                                         f"alert {page.alert_text()!r}; {exc}") from None
-                if key == "sensor" and _sensor_set(s, *value):
-                    expected["sensor"] = s["params"]["sensor"]  # the field joins the others set before
-                    assert page.alert_text() == "", f"step {step}: {value}: {page.alert_text()}"
-                elif key == "sensor":
-                    text = page.alert_text()
-                    # the message names the field typed, or says the full well would not be above the read noise
-                    assert field in text or "not above the read noise" in text, f"step {step}: {value}: {text}"
-                    assert any(d in text for d in DOCUMENTED), f"step {step}: {value}: {text}"
-                    assert s["params"]["sensor"] == expected["sensor"]
-                elif s["params"][key] == value:
-                    expected[key] = value
-                    assert page.alert_text() == "", f"step {step}: {key}={value!r}: {page.alert_text()}"
-                else:  # refused: documented, and the widgets are back at the values shown
-                    text = page.alert_text()
-                    assert any(d in text for d in DOCUMENTED), f"step {step}: {key}={value!r}: {text}"
-                    if key in SELECTS:
-                        css = SELECTS[key][0]
-                        page.page.wait_for_function("([el, v]) => el.value === v", arg=[
-                            page.page.locator(f".{css} select").first.element_handle(), expected[key]])
-                if key == "camera":  # a camera brings its own Gaussian defaults and sensor sheet: take them as set
-                    expected.update({k: s["params"][k] for k in ("gaussian_centers", "gaussian_widths")})
-                    assert s["params"]["sensor"] == ""
-                    expected["sensor"] = ""
-                assert s["params"] == expected, f"step {step}: computed {s['params']} != set {expected}"
-                walked.append(key if key != "sensor" else field)
-                _views_show_the_image(page, s, step)
-                if step % 25 == 0 or step == STEPS:
-                    page.shot(f"monkey-{step:03d}")
-            print(f"\nwalk (seed {SEED}): {', '.join(walked)}")
-            assert page.errors() == []
-        finally:
-            page.close()
-            browser.close()
+            try:
+                s = page.wait_for(settled, timeout=240)
+            except AssertionError as exc:
+                raise AssertionError(f"step {step}: {key}={value!r} never settled (walk: {walked}); "
+                                     f"alert {page.alert_text()!r}; {exc}") from None
+            if key == "sensor" and _sensor_set(s, *value):
+                expected["sensor"] = s["params"]["sensor"]  # the field joins the others set before
+                assert page.alert_text() == "", f"step {step}: {value}: {page.alert_text()}"
+            elif key == "sensor":
+                text = page.alert_text()
+                # the message names the field typed, or says the full well would not be above the read noise
+                assert field in text or "not above the read noise" in text, f"step {step}: {value}: {text}"
+                assert any(d in text for d in DOCUMENTED), f"step {step}: {value}: {text}"
+                assert s["params"]["sensor"] == expected["sensor"]
+            elif s["params"][key] == value:
+                expected[key] = value
+                assert page.alert_text() == "", f"step {step}: {key}={value!r}: {page.alert_text()}"
+            else:  # refused: documented, and the widgets are back at the values shown
+                text = page.alert_text()
+                assert any(d in text for d in DOCUMENTED), f"step {step}: {key}={value!r}: {text}"
+                if key in SELECTS:
+                    css = SELECTS[key][0]
+                    page.page.wait_for_function("([el, v]) => el.value === v", arg=[
+                        page.page.locator(f".{css} select").first.element_handle(), expected[key]])
+            if key == "camera":  # a camera brings its own Gaussian defaults and sensor sheet: take them as set
+                expected.update({k: s["params"][k] for k in ("gaussian_centers", "gaussian_widths")})
+                assert s["params"]["sensor"] == ""
+                expected["sensor"] = ""
+            assert s["params"] == expected, f"step {step}: computed {s['params']} != set {expected}"
+            walked.append(key if key != "sensor" else field)
+            _views_show_the_image(page, s, step)
+            if step % 25 == 0 or step == STEPS:
+                page.shot(f"monkey-{step:03d}")
+        print(f"\nwalk (seed {SEED}): {', '.join(walked)}")
+        assert page.errors() == []
+    finally:
+        page.close()
