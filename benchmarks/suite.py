@@ -156,6 +156,18 @@ def _load():
         return " ".join(f.read().split()[:3])
 
 
+#: A fixed pure-Python loop (20 million additions) and what it took at the fastest seen on the machine these
+#: tables come from (s): the host's speed varies by itself (by 1.5-2.7 times in a day), so each run is timed
+#: against the loop, run alone before and after it.
+LOOP = "import time\nt = time.perf_counter()\ns = 0\nfor i in range(20_000_000):\n    s += i\nprint(time.perf_counter() - t)"
+LOOP_FASTEST_S = 1.27
+
+
+def _loop_s():
+    """Seconds the fixed loop (:data:`LOOP`) takes now, in a process of its own."""
+    return float(subprocess.run([sys.executable, "-c", LOOP], capture_output=True, text=True, check=True).stdout)
+
+
 def main(argv):
     with tempfile.NamedTemporaryFile("w", suffix=".tsv", delete=False) as f:
         out = f.name
@@ -163,9 +175,11 @@ def main(argv):
     path = [str(Path(__file__).resolve().parent)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(path), **{OUT_ENV: out})
     args = MAKE_TEST_ARGS + (argv or [])
+    loop_before = _loop_s()
     load_before, (busy0, all0), t0 = _load(), _busy_ticks(), time.perf_counter()
     code = subprocess.call([sys.executable, "-m", "pytest", "-p", "suite", *args], cwd=ROOT, env=env)
     wall, (busy1, all1), load_after = time.perf_counter() - t0, _busy_ticks(), _load()
+    loop_after = _loop_s()
     rows = []
     by_kind = Counter()
     for line in Path(out).read_text().splitlines():
@@ -184,10 +198,16 @@ def main(argv):
     machine_cpu = (busy1 - busy0) / _TICK
     cores = os.cpu_count() or 1
     print(f"\npytest {' '.join(args)}: exit status {code}")
-    print(f"load average before {load_before}, after {load_after}; {cores} cores\n")
+    print(f"load average before {load_before}, after {load_after}; {cores} cores")
+    loop = (loop_before + loop_after) / 2
+    print(f"the fixed loop took {loop_before:.2f} s before and {loop_after:.2f} s after ({LOOP_FASTEST_S} s at this "
+          f"machine's fastest): the host ran {loop / LOOP_FASTEST_S:.2f} times slower than at its fastest\n")
     print("| run | seconds | ratio to the goal |\n|---|---|---|")
     print(f"| wall time | {wall:.0f} | {wall / GOAL_S:.2f} (goal {GOAL_S:.0f} s) |")
     print(f"| CPU of the machine meanwhile | {machine_cpu:.0f} | cores busy {machine_cpu / wall / cores:.0%} |")
+    # an estimate: the suite is bound by CPU, and its CPU scales with the loop's time as the host's speed varies
+    fastest = wall * LOOP_FASTEST_S / loop
+    print(f"| wall time scaled to the loop's fastest (estimate) | {fastest:.0f} | {fastest / GOAL_S:.2f} |")
     total = sum(cpu for _, cpu, _ in rows)
     print(f"| CPU of the tests (their workers' processes) | {total:.0f} | share of the machine's "
           f"{total / machine_cpu:.0%} |\n")
