@@ -205,9 +205,6 @@ def main(argv):
     print("| run | seconds | ratio to the goal |\n|---|---|---|")
     print(f"| wall time | {wall:.0f} | {wall / GOAL_S:.2f} (goal {GOAL_S:.0f} s) |")
     print(f"| CPU of the machine meanwhile | {machine_cpu:.0f} | cores busy {machine_cpu / wall / cores:.0%} |")
-    # an estimate: the suite is bound by CPU, and its CPU scales with the loop's time as the host's speed varies
-    fastest = wall * LOOP_FASTEST_S / loop
-    print(f"| wall time scaled to the loop's fastest (estimate) | {fastest:.0f} | {fastest / GOAL_S:.2f} |")
     total = sum(cpu for _, cpu, _ in rows)
     print(f"| CPU of the tests (their workers' processes) | {total:.0f} | share of the machine's "
           f"{total / machine_cpu:.0%} |\n")
