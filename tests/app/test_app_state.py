@@ -229,9 +229,22 @@ def test_sessions_share_nothing_but_read_only_data(tmp_path):
     assert a.pipeline is not b.pipeline
 
 
-def test_each_metric_makes_only_the_map_it_shows(state):
+@pytest.fixture
+def cold_state(monkeypatch):
+    """A session that starts from nothing computed: not from the pipeline memory another session of the
+    process left for the shipped scene (``_WARM``), which holds whatever maps that session made."""
+    import camsim_explorer.state as state_module
+
+    monkeypatch.setattr(state_module, "_WARM", {})
+    return ExplorerState()
+
+
+def test_each_metric_makes_only_the_map_it_shows(cold_state):
     """S-CIELAB shown: its map is made and the hidden CIELAB map is not (on a megapixel image that was a
-    tenth of an exposure move); a move then re-makes only S-CIELAB; CIELAB again makes its own map."""
+    tenth of an exposure move); a move then re-makes only S-CIELAB; CIELAB again makes its own map.
+    (A session warmed by another's memory found S-CIELAB made already when a test before, in the same
+    process, had shown it.)"""
+    state = cold_state
     assert state.result.delta_e is not None and state.result.scielab is None
     state.metric = "S-CIELAB"
     assert state.result.scielab is not None and state.result.delta_e is None
