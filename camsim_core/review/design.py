@@ -32,7 +32,7 @@ from ..errors import CamsimError, FileFormatError, ParameterError
 __all__ = [
     "DESIGN_DEFAULTS", "DESIGN_PARAMETERS", "CAMERA_CHOICES", "MOSAIC_CHOICES", "RENDER_CHOICES",
     "ILLUMINANT_CHOICES", "METRIC_CHOICES", "GAUSSIAN_DEFAULTS", "DesignResult",
-    "check_params", "camera_from_params", "processing_from_params", "scene_from_params",
+    "check_params", "with_defaults", "camera_from_params", "processing_from_params", "scene_from_params",
     "evaluate_design", "measures", "quality_measures", "QUALITY_LABELS", "QUALITY_DIGITS", "check_pinned", "MAX_PINNED", "MAX_NAME", "read_design_file", "result_from_pipeline", "parse_numbers", "parse_tile", "applied_parameters", "differing_parameters", "parse_sensor", "sensor_text",
 ]
 
@@ -243,6 +243,44 @@ def _number_text(value):
     return str(int(v)) if v.is_integer() and abs(v) < 1e15 else repr(v)
 
 
+def with_defaults(params):
+    """A design's parameters with each one it leaves out at its default.
+
+    A Gaussian camera's sensor centres and widths default to that camera's own
+    (:data:`GAUSSIAN_DEFAULTS`: the explorer sets them when the camera is
+    chosen); every other parameter to :data:`DESIGN_DEFAULTS`. A design file
+    that names ``gaussian-4`` and no centres was given the three-sensor
+    preset's, and refused with "tile names sensor index 3, but the camera has
+    3 sensors".
+
+    Parameters
+    ----------
+    params : dict
+        Design parameters by name (any subset of :data:`DESIGN_PARAMETERS`), not validated.
+
+    Returns
+    -------
+    dict
+        Every parameter of :data:`DESIGN_DEFAULTS`: those of ``params`` as given, the others at their default.
+
+    Examples
+    --------
+    >>> with_defaults({"camera": "gaussian-4"})["gaussian_centers"]
+    '460, 520, 580, 640'
+    >>> with_defaults({"camera": "gaussian-4", "gaussian_widths": "30"})["gaussian_widths"]
+    '30'
+    >>> with_defaults({})["camera"], with_defaults({})["noise_sigma"]
+    ('kodak-dcs200-ir', 0.0)
+    """
+    p = dict(DESIGN_DEFAULTS, **params)
+    own = GAUSSIAN_DEFAULTS.get(p["camera"]) if isinstance(p["camera"], str) else None
+    if own is not None:
+        for name, value in zip(("gaussian_centers", "gaussian_widths"), own):
+            if name not in params:
+                p[name] = value
+    return p
+
+
 def check_params(values, where="design"):
     """The full, validated parameter dict of a design: ``values`` over :data:`DESIGN_DEFAULTS`.
 
@@ -286,7 +324,7 @@ def check_params(values, where="design"):
             if name == "alpha":  # the mixture the camera is made of (camera_from_params): what ran is what is listed
                 value = round(value, 3)
         out[name] = value
-    return out
+    return with_defaults({k: out[k] for k in values})  # a Gaussian camera left without centres takes its own
 
 
 @lru_cache(maxsize=32)
@@ -327,7 +365,7 @@ def camera_from_params(params, *, max_sensors=MAX_SENSORS, max_tile=MAX_TILE, ma
     from ..camera.physical import with_settings
     from ..datasets.sensors import gaussian_sensors
 
-    p = dict(DESIGN_DEFAULTS, **params)
+    p = with_defaults(params)
     if p["camera"] == "mixture":
         cam = _preset(f"mixture-{round(float(p['alpha']), 3):g}")
     else:
@@ -368,7 +406,7 @@ def processing_from_params(params, metrics=None):
     hides; switching back computes that map then); comparisons pass
     ``("cielab", "scielab")``.
     """
-    p = dict(DESIGN_DEFAULTS, **params)
+    p = with_defaults(params)
     if metrics is None:
         metrics = ("cielab",) if p["metric"] == "CIELAB" else ("scielab",)
     return Processing(
@@ -386,7 +424,7 @@ def scene_from_params(params):
     (a factor of the scene's own light level)."""
     from ..scene import load_scene, scale_light
 
-    p = dict(DESIGN_DEFAULTS, **params)
+    p = with_defaults(params)
     return scale_light(load_scene(p["scene"]), p["light"])
 
 
@@ -621,7 +659,7 @@ def applied_parameters(params):
     >>> applied_parameters({"camera": "gaussian-4", "gaussian_centers": "460, 520, 580, 640"})["gaussian_centers"]
     '460, 520, 580, 640'
     """
-    p = dict(DESIGN_DEFAULTS, **params)
+    p = with_defaults(params)
     if p["camera"] not in GAUSSIAN_DEFAULTS:
         p["gaussian_centers"] = p["gaussian_widths"] = None
     if p["camera"] != "mixture":
@@ -716,5 +754,5 @@ def check_pinned(pinned, where="pinned"):
 
 
 def _same_design(a, b, skip=_SHARED):
-    a, b = dict(DESIGN_DEFAULTS, **a), dict(DESIGN_DEFAULTS, **b)
+    a, b = with_defaults(a), with_defaults(b)
     return all(a[k] == b[k] for k in DESIGN_PARAMETERS if k not in skip)

@@ -28,7 +28,7 @@ from .._parallel import background
 from ..cache import Pipeline
 from ..errors import CamsimError, ParameterError
 from ..camera.physical import PHYSICAL_NAMES
-from .design import DESIGN_DEFAULTS, DESIGN_PARAMETERS, GAUSSIAN_DEFAULTS, check_params, evaluate_design, parse_numbers
+from .design import DESIGN_PARAMETERS, GAUSSIAN_DEFAULTS, check_params, evaluate_design, parse_numbers, with_defaults
 
 __all__ = ["not_applicable", "SWEEP_PARAMETERS", "MAX_SWEEP_VALUES", "MAX_SWEEP_DESIGNS", "SweepPoint", "check_sweep", "design_at",
            "iter_sweep", "run_sweep"]
@@ -88,7 +88,7 @@ def check_sweep(sweep, where="sweep"):
 
 def design_at(params, parameter, value, where="design"):
     """The design's parameters with ``parameter`` set to ``value`` (validated; ParameterError if it does not apply)."""
-    p = dict(DESIGN_DEFAULTS, **params)
+    p = with_defaults(params)
     if parameter.startswith("gaussian_center_"):
         k = int(parameter.rsplit("_", 1)[1])
         if p["camera"] not in GAUSSIAN_DEFAULTS:
@@ -135,7 +135,7 @@ def not_applicable(params, parameter):
     >>> not_applicable({"camera": "kodak-dcs200"}, "noise_sigma") is None
     True
     """
-    camera = dict(DESIGN_DEFAULTS, **params).get("camera")
+    camera = with_defaults(params).get("camera")
     if parameter == "noise_sigma" and camera in PHYSICAL_NAMES:
         return (f"noise sigma does not apply to {camera}, an electron-level camera (its noise is its sensor's own): "
                 "not swept")
