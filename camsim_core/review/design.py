@@ -282,7 +282,7 @@ def with_defaults(params):
 
 
 def check_params(values, where="design"):
-    """The full, validated parameter dict of a design: ``values`` over :data:`DESIGN_DEFAULTS`.
+    """The full, validated parameter dict of a design: ``values`` over their defaults (:func:`with_defaults`).
 
     Unknown names, wrong types and values out of range raise a ParameterError
     naming ``where`` (a file name, a pinned design's name) and the parameter.
