@@ -23,6 +23,7 @@ page can show that its results are out of date.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import json
 import logging
@@ -100,6 +101,22 @@ CHART_EXPOSURE = 0.8
 #: The charts the server's sessions hold, by name (``shared_chart``): held weakly, kept while a session holds one.
 _SHARED_CHARTS = weakref.WeakValueDictionary()
 _SHARED_CHARTS_LOCK = threading.Lock()
+
+
+@functools.lru_cache(maxsize=None)
+def sheet_bits(camera):
+    """The bits of a shipped camera's ADC, as its sheet gives them (``imx174``: 12), or None (``mixture``, a
+    camera that cannot be read).
+
+    Examples
+    --------
+    >>> sheet_bits("imx174"), sheet_bits("kodak-dcs200-ir"), sheet_bits("mixture")
+    (12, 8, None)
+    """
+    try:
+        return int(cc.load_camera(camera).bits or 0) or None
+    except CamsimError:
+        return None
 
 
 def shared_chart(name, max_values):
@@ -440,6 +457,11 @@ class ExplorerState(param.Parameterized):
                 self.sensor = ""
             finally:
                 self._updating = False
+        if "camera" in names and "bits" not in names:
+            own = sheet_bits(self.camera)
+            if own and self.bits and own != self.bits:  # said, not changed: the page's bits are the user's
+                self._add_notice(f"{self.camera}'s sheet gives its ADC {own} bits; the raw is kept at {self.bits} bits "
+                                 f"(Exposure and noise: Bits of the raw).")
         if "camera" in names and self.camera in GAUSSIAN_DEFAULTS:
             centers, widths = GAUSSIAN_DEFAULTS[self.camera]
             if len(parse_numbers_safe(self.gaussian_centers)) != len(parse_numbers_safe(centers)):

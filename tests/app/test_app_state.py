@@ -926,3 +926,21 @@ def test_an_alpha_past_three_decimals_is_taken_as_the_mixture_that_runs():
     assert "Alpha 0.1234 taken as 0.123" in state.notice
     assert check_params({"alpha": 0.1234})["alpha"] == 0.123
     assert cc.review.evaluate_design({"camera": "mixture", "alpha": 0.1234}, "x", quality=False).params["alpha"] == 0.123
+
+
+def test_a_camera_whose_adc_has_other_bits_says_so_and_keeps_the_raws():
+    """imx174's sheet gives its ADC 12 bits; the page keeps the raw at the bits chosen (8 by default) and says
+    so when the camera is picked, instead of leaving an engineer to believe the camera's own depth ran."""
+    state = ExplorerState()
+    state.camera = "imx174"
+    assert state.result.params["bits"] == 8 and state.result.raw.bits == 8
+    assert "imx174's sheet gives its ADC 12 bits; the raw is kept at 8 bits" in state.notice
+    state.bits = 12
+    state.camera = "kodak-dcs200-ir"  # its sheet's 8 bits against the 12 chosen
+    assert "kodak-dcs200-ir's sheet gives its ADC 8 bits; the raw is kept at 12 bits" in state.notice
+    state.param.update(camera="imx174", bits=12)  # a camera with its own depth (a link, a file): nothing to say
+    assert "sheet gives" not in state.notice
+    state.param.update(camera="kodak-dcs200-ir", bits=8)
+    state.bits = 0
+    state.camera = "imx174"  # unquantized: no depth to compare
+    assert "sheet gives" not in state.notice
