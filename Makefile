@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 PORT   ?= 5006
 
-.PHONY: install chromium bytecode serve test test-fast bench clean
+.PHONY: install chromium bytecode kernels serve test test-fast bench clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -31,6 +31,16 @@ chromium:
 bytecode: install
 	$(PY) -m compileall -q -j 0 camsim_core app tests benchmarks >/dev/null
 
+# The engine's compiled kernels (numba keeps them beside the sources, in __pycache__), made once here before the
+# tests: in a clean clone every process of the run's first minute (three workers, their servers) compiled them at
+# once, about 14 s of CPU each, where a process that finds them made loads them in under a second. Made again
+# after a change to the engine's sources (numba compiles only what changed).
+$(VENV)/.kernels: $(VENV)/.installed $(shell find camsim_core -name '*.py')
+	OPENBLAS_NUM_THREADS=1 $(PY) -c "from camsim_explorer.main import warm_up; warm_up()"
+	touch $@
+
+kernels: $(VENV)/.kernels
+
 # One BLAS thread per process: the explorer's matrices are small, and threads only contend.
 serve: install bytecode
 	OPENBLAS_NUM_THREADS=1 $(VENV)/bin/camsim serve --port $(PORT)
@@ -38,11 +48,11 @@ serve: install bytecode
 # Three workers (pytest-xdist) on two cores, each test file on one of them, the longest files first
 # (tests/conftest.py): a browser test's worker waits on its server and its browser much of the time, which a third
 # worker fills. A worker starts one server, a file one browser.
-test: install chromium bytecode
+test: install chromium bytecode kernels
 	$(PY) -m pytest -q -rfEs -n 3 --dist loadfile --no-loadscope-reorder
 
 # The development loop: the engine and the explorer's state and server, no browser (about three minutes on two cores).
-test-fast: install bytecode
+test-fast: install bytecode kernels
 	$(PY) -m pytest -q -rs -n 2 --dist loadfile tests/engine tests/app
 
 bench: install
