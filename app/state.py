@@ -103,7 +103,7 @@ _SHARED_CHARTS = weakref.WeakValueDictionary()
 _SHARED_CHARTS_LOCK = threading.Lock()
 
 
-@functools.lru_cache(maxsize=None)
+@functools.lru_cache(maxsize=32)  # the camera list's names
 def sheet_bits(camera):
     """The bits of a shipped camera's ADC, as its sheet gives them (``imx174``: 12), or None (``mixture``, a
     camera that cannot be read).

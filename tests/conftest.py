@@ -89,8 +89,8 @@ class _WorkerBrowser:
     """Debian's Chromium driven by Playwright, kept open by a worker from one browser test file to the next.
 
     Launching it (its browser, GPU, zygote and utility processes, Playwright's driver) and closing it cost about
-    1.5-2 s of CPU, once per test file before. It is closed before any test that does not use it (the engine's
-    and the explorer's tests, files with a browser of their own) and at the end of the run: Playwright's sync
+    1.5-2 s of CPU, once per test file before. It is closed before the tests of a file that does not use it (the
+    engine's and the explorer's tests, files with a browser of their own) and at the end of the run: Playwright's sync
     API holds an asyncio loop in the thread while it runs, and those tests use asyncio or start Playwright
     themselves."""
 
@@ -125,15 +125,14 @@ class _WorkerBrowser:
 _WORKER_BROWSER = _WorkerBrowser()
 #: The test files with a test that uses it (the others close it: ``pytest_runtest_setup``).
 _BROWSER_FILES = set()
-#: The ``baseid`` of this conftest's fixtures: its folder, relative to the rootdir.
-_CONFTEST_BASEID = "tests"
 
 
 def _uses_shared_browser(item):
     """Whether ``item`` uses this conftest's ``browser`` fixture (itself, or through ``page`` or ``shared_page``),
-    not a test file's own (a fixture's ``baseid`` is the folder of its conftest, or its test file)."""
+    not a test file's own: a fixture's ``baseid`` is its test file's node id (``....py``) or its conftest's folder,
+    whatever folder pytest runs from."""
     defs = getattr(getattr(item, "_fixtureinfo", None), "name2fixturedefs", {}).get("browser")
-    return bool(defs) and defs[-1].baseid == _CONFTEST_BASEID
+    return bool(defs) and not defs[-1].baseid.endswith(".py")
 
 
 @pytest.hookimpl(tryfirst=True)
