@@ -6,10 +6,16 @@ PORT   ?= 5006
 
 .PHONY: install chromium bytecode kernels serve test test-fast bench clean
 
+# uv (from PyPI) installs the dependencies: 28 s against pip's 64 s in a new environment with no download cache
+# (2026-11-29), the same versions. It compiles their bytecode as pip does: CI machines set PYTHONDONTWRITEBYTECODE,
+# and every process would compile numpy, SciPy, Panel and Bokeh from source as it imported them. The environment
+# keeps pip (the wheel test builds camsim's wheel with it).
+UV_VERSION ?= 0.13.9
+
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e ".[app,test,detect]"
+	$(PY) -m pip install --quiet "uv==$(UV_VERSION)"
+	$(PY) -m uv pip install --quiet --python $(PY) --compile-bytecode -e ".[app,test,detect]"
 	touch $@
 
 install: $(VENV)/.installed
