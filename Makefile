@@ -6,16 +6,22 @@ PORT   ?= 5006
 
 .PHONY: install chromium bytecode kernels serve test test-fast bench clean
 
-# uv (from PyPI) installs the dependencies: 28 s against pip's 64 s in a new environment with no download cache
-# (2026-11-29), the same versions. It compiles their bytecode as pip does: CI machines set PYTHONDONTWRITEBYTECODE,
-# and every process would compile numpy, SciPy, Panel and Bokeh from source as it imported them. The environment
-# keeps pip (the wheel test builds camsim's wheel with it).
+# Python writes the bytecode of the modules it imports (into .venv/ and the checkout's __pycache__ folders) in every
+# command below, whatever the environment says: CI machines set PYTHONDONTWRITEBYTECODE, and every process (each
+# server, test worker, upload reader) would compile numpy, SciPy, Panel, Bokeh and camsim from source each time it
+# imported them. Written on first import, it is made for the ~1,000 modules the explorer imports (the kernels step
+# below imports them first), not for the 9,700 files of the dependencies (pip's and uv's --compile-bytecode:
+# 20 s of the set-up).
+unexport PYTHONDONTWRITEBYTECODE
+
+# uv (from PyPI) installs the dependencies: 7 s against pip's 64 s in a new environment with no download cache
+# (2026-11-29), the same versions. The environment keeps pip (the wheel test builds camsim's wheel with it).
 UV_VERSION ?= 0.13.9
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet "uv==$(UV_VERSION)"
-	$(PY) -m uv pip install --quiet --python $(PY) --compile-bytecode -e ".[app,test,detect]"
+	$(PY) -m uv pip install --quiet --python $(PY) -e ".[app,test,detect]"
 	touch $@
 
 install: $(VENV)/.installed
@@ -30,10 +36,9 @@ chromium:
 	  echo "installing Debian's exiftool for the DNG tests"; \
 	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libimage-exiftool-perl >/dev/null; }
 
-# Python's compiled bytecode of camsim's own modules, written once here: where PYTHONDONTWRITEBYTECODE is set (as
-# on CI machines) nothing else writes it, and every process (each server, test worker, upload reader, command)
-# compiled camsim from source as it imported it, 2.5 s of CPU for the explorer (4.7 s -> 2.1 s to import it).
-# Up-to-date files are skipped.
+# Python's compiled bytecode of camsim's own modules and tests, written once here before the test workers start
+# (three of them would otherwise compile the same files at once; 2.5 s of CPU for the explorer, 4.7 s -> 2.1 s to
+# import it). Up-to-date files are skipped.
 bytecode: install
 	$(PY) -m compileall -q -j 0 camsim_core app tests benchmarks >/dev/null
 

@@ -128,10 +128,12 @@ def test_github_anchor_follows_githubs_rule():
 
 
 def test_make_test_and_serve_write_camsims_bytecode_first():
-    """Where PYTHONDONTWRITEBYTECODE is set (CI machines), nothing but ``make``'s ``bytecode`` step writes the
-    compiled modules of camsim, and every process of the suite compiled the explorer from source as it
-    imported it (4.7 s to import it instead of 2.1 s)."""
+    """Where PYTHONDONTWRITEBYTECODE is set (CI machines), every process of the suite compiled the explorer and
+    its dependencies from source as it imported them (4.7 s to import it instead of 2.1 s): ``make`` lets Python
+    write the bytecode of what it imports (the dependencies are installed without theirs), and its ``bytecode``
+    step writes camsim's before the test workers start."""
     makefile = (ROOT / "Makefile").read_text(encoding="utf-8")
+    assert re.search(r"^unexport PYTHONDONTWRITEBYTECODE$", makefile, re.M)
     for target in ("test", "test-fast", "serve"):
         deps = re.search(rf"^{re.escape(target)}:(.*)$", makefile, re.M).group(1).split()
         assert "bytecode" in deps, (target, deps)
