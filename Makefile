@@ -15,13 +15,16 @@ PORT   ?= 5006
 unexport PYTHONDONTWRITEBYTECODE
 
 # uv (from PyPI) installs the dependencies: 7 s against pip's 64 s in a new environment with no download cache
-# (2026-11-29), the same versions. The environment keeps pip (the wheel test builds camsim's wheel with it).
+# (2026-11-29), the same versions; pip does it where uv cannot be had or fails. The environment keeps pip (the
+# wheel test builds camsim's wheel with it).
 UV_VERSION ?= 0.13.9
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet "uv==$(UV_VERSION)"
-	$(PY) -m uv pip install --quiet --python $(PY) -e ".[app,test,detect]"
+	{ $(PY) -m pip install --quiet "uv==$(UV_VERSION)" && \
+	  $(PY) -m uv pip install --quiet --python $(PY) -e ".[app,test,detect]"; } || { \
+	  echo "uv could not install the dependencies: installing them with pip"; \
+	  $(PY) -m pip install --quiet -e ".[app,test,detect]"; }
 	touch $@
 
 install: $(VENV)/.installed
