@@ -61,6 +61,35 @@ def test_gaussian_sensor_edits_reach_the_camera(state):
     assert state.result.camera.sensors is sens
 
 
+def test_a_plain_watcher_sees_the_state_normalised_and_a_param_depends_one_before_it(state):
+    """Why the views that follow the state's parameters use ``param.watch`` (docs/design/explorer-sessions.md):
+    a watcher registered after the state's own runs once the state has put in a new Gaussian camera's centres; one
+    made by ``param.depends(..., watch=True)`` runs first (param's precedence -1) and sees the old camera's. Fails if
+    param changes that order, and the note with it."""
+    import param
+
+    from camsim_core.review.design import GAUSSIAN_DEFAULTS
+
+    seen = []
+
+    class Follower(param.Parameterized):
+        state = param.ClassSelector(class_=ExplorerState)
+
+        @param.depends("state.camera", watch=True)
+        def _on_camera(self):
+            seen.append(("param.depends", self.state.gaussian_centers))
+
+    state.camera = "gaussian-3"
+    three = state.gaussian_centers
+    follower = Follower(state=state)
+    state.param.watch(lambda event: seen.append(("param.watch", state.gaussian_centers)), "camera")
+    state.camera = "gaussian-4"
+    four = GAUSSIAN_DEFAULTS["gaussian-4"][0]
+    assert len(three.split(",")) == 3 and len(four.split(",")) == 4
+    assert seen == [("param.depends", three), ("param.watch", four)]
+    assert follower.state is state and state.result.camera.sensors.values.shape[0] == 4
+
+
 def test_mixture_alpha_builds_the_engine_mixture(state):
     from camsim_core.datasets.sensors import mixture
 
