@@ -294,7 +294,7 @@ def check_params(values, where="design"):
     if unknown:
         raise ParameterError(where, f"unknown parameter(s) {', '.join(map(str, unknown))}; "
                                     f"valid: {', '.join(DESIGN_PARAMETERS)}")
-    out = dict(DESIGN_DEFAULTS)
+    out = {}
     for name, value in values.items():
         default, kind, spec = DESIGN_PARAMETERS[name]
         label = f"{where}: {name}"
@@ -324,7 +324,7 @@ def check_params(values, where="design"):
             if name == "alpha":  # the mixture the camera is made of (camera_from_params): what ran is what is listed
                 value = round(value, 3)
         out[name] = value
-    return with_defaults({k: out[k] for k in values})  # a Gaussian camera left without centres takes its own
+    return with_defaults(out)  # the others at their defaults: a Gaussian camera left without centres takes its own
 
 
 @lru_cache(maxsize=32)
