@@ -203,6 +203,9 @@ LIMITS = ServerLimits()
 #: S-CIELAB samples per degree a viewing may give in the explorer: outside, the filters' sizes run to
 #: gigabytes (``spd:1e-300``) or their time to seconds per change.
 VIEWING_SAMPLES_PER_DEGREE = (0.01, 10_000.0)
+#: The largest whole number a browser's number keeps exactly (JavaScript's ``Number.MAX_SAFE_INTEGER``, 2**53 - 1):
+#: the page's boxes, its address and Bokeh's messages hold numbers as JavaScript's doubles.
+MAX_EXACT_WHOLE = 2**53 - 1
 
 
 def check_text(name, value):
@@ -340,7 +343,8 @@ class ExplorerState(param.Parameterized):
     f_stop = param.Number(default=11.0, bounds=(1.0, 32.0), step=0.1, doc="f-number")
     noise_sigma = param.Number(default=0.0, bounds=(0.0, 50.0), step=0.5, doc="Noise standard deviation, digital units")
     bits = param.Integer(default=8, bounds=(0, 16), doc="Quantization bits; 0 = unquantized")
-    seed = param.Integer(default=0, bounds=(0, None), doc="Noise seed")
+    seed = param.Integer(default=0, bounds=(0, MAX_EXACT_WHOLE), doc="Noise seed (at most 2**53 - 1: a larger "
+                         "whole number is rounded by the browser, so the box would show another seed than the one used)")
     # processing
     demosaic_method = param.Selector(default="bilinear", objects=list(demosaic_methods()))
     render_method = param.Selector(default="baseline", objects=list(RENDER_CHOICES))
@@ -760,7 +764,8 @@ class ExplorerState(param.Parameterized):
             if whole and isinstance(value, float) and math.isfinite(value):
                 why = "must be a whole number"
             else:
-                why = (f"must lie in {_range_text(bounds)}" if bounds is not None else str(exc).split(". ")[0])
+                why = (f"must lie in {_range_text(bounds)}{_BOUND_REASONS.get(name, '')}" if bounds is not None
+                       else str(exc).split(". ")[0])
             self.message = f"Refused: {_LABELS.get(name, name)} {value!r} {why}; kept {getattr(self, name)!r}"
         return getattr(self, name)
 
@@ -1415,11 +1420,16 @@ _LABELS = {"noise_sigma": "noise sigma", "f_stop": "f-stop", "exposure": "exposu
            "seed": "seed", "alpha": "alpha", "bits": "bits", "light": "light level (x the scene's)"}
 
 
+#: Why a bound is where it is, where the number itself does not say it.
+_BOUND_REASONS = {"seed": " (the largest whole number a browser keeps exactly)"}
+
+
 def _range_text(bounds):
-    lo, hi = bounds
+    """``[lo, hi]`` as a refusal says it: whole bounds in full (a seed's 9007199254740991, not 9.0072e+15)."""
+    lo, hi = (b if isinstance(b, int) or b is None else f"{b:g}" for b in bounds)
     if hi is None:
-        return f"[{lo:g}, no upper limit)"
-    return f"[{lo:g}, {hi:g}]"
+        return f"[{lo}, no upper limit)"
+    return f"[{lo}, {hi}]"
 
 
 def parse_numbers_safe(text):

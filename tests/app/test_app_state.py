@@ -465,6 +465,17 @@ def test_an_out_of_range_value_is_refused_with_a_message(state, name, value, wor
     assert getattr(state, name) == before and state.result is good
 
 
+def test_a_seed_is_taken_up_to_the_largest_whole_number_a_browser_keeps_exactly(state):
+    """Past 2**53 - 1 (JavaScript's Number.MAX_SAFE_INTEGER, 9007199254740991) a browser rounds a whole number:
+    2**53 + 1 typed in the box reaches the server as 2**53, and a link's exact seed shows rounded in the box."""
+    assert float(2**53 + 1) == 2**53  # what a double (the browser's number) does to it
+    assert state.set_value("seed", 2**53) == 0
+    assert "seed 9007199254740992 must lie in [0, 9007199254740991]" in state.message, state.message
+    assert state.apply_valid({"seed": 10**20, "noise_sigma": 1.0}) == {"seed": 10**20}
+    assert (state.seed, state.noise_sigma) == (0, 1.0)
+    assert state.set_value("seed", float(2**53 - 1)) == 2**53 - 1 and state.seed == 9007199254740991
+
+
 def test_a_combination_refused_by_the_engine_puts_the_parameters_back(state):
     state.demosaic_method = "malvar2004"  # fine on the DCS-200's Bayer tile
     good = state.result
