@@ -764,8 +764,7 @@ class ExplorerState(param.Parameterized):
             if whole and isinstance(value, float) and math.isfinite(value):
                 why = "must be a whole number"
             else:
-                why = (f"must lie in {_range_text(bounds)}{_BOUND_REASONS.get(name, '')}" if bounds is not None
-                       else str(exc).split(". ")[0])
+                why = (f"must lie in {_range_text(bounds)}" if bounds is not None else str(exc).split(". ")[0])
             self.message = f"Refused: {_LABELS.get(name, name)} {value!r} {why}; kept {getattr(self, name)!r}"
         return getattr(self, name)
 
@@ -1418,10 +1417,6 @@ def bright_end(raw, camera=None, percentile=99.5):
 
 _LABELS = {"noise_sigma": "noise sigma", "f_stop": "f-stop", "exposure": "exposure (s)", "distance": "distance (m)",
            "seed": "seed", "alpha": "alpha", "bits": "bits", "light": "light level (x the scene's)"}
-
-
-#: Why a bound is where it is, where the number itself does not say it.
-_BOUND_REASONS = {"seed": " (the largest whole number a browser keeps exactly)"}
 
 
 def _range_text(bounds):

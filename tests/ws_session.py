@@ -220,3 +220,10 @@ class WsSession:
             self.ws.close()
         if self._reader is not None:
             self._reader.cancel()
+
+    def vanish(self):
+        """Drop the connection with no close frame, as a page whose renderer is gone does."""
+        if self.ws is not None and self.ws.protocol is not None:
+            self.ws.protocol.stream.close()
+        if self._reader is not None:
+            self._reader.cancel()

@@ -48,8 +48,7 @@ async def _closed_mid_change(url, first):
     page = await WsSession.open(url)
     for k in range(CHANGES):
         await page.change("w-noise", float((first + k) % 5 + 1))
-    page.ws.protocol.stream.close()
-    page._reader.cancel()
+    page.vanish()
 
 
 async def _pages_closed_mid_change(url, rounds, at_once):
