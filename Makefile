@@ -15,16 +15,17 @@ PORT   ?= 5006
 unexport PYTHONDONTWRITEBYTECODE
 
 # uv (from PyPI) installs the dependencies: 7 s against pip's 64 s in a new environment with no download cache
-# (2026-11-29), the same versions; pip does it where uv cannot be had or fails. The environment keeps pip (the
-# wheel test builds camsim's wheel with it).
+# (2026-11-29), the same versions; pip does it where uv cannot be had or fails. The environment is made without
+# pip and the machine's pip puts uv into it (`pip --python`, pip 22.3 and later): venv's own copy of pip took 3.9 s
+# of the set-up, uv installs it in 0.5 s. The environment keeps pip (the wheel test builds camsim's wheel with it).
 UV_VERSION ?= 0.13.9
 
 $(VENV)/.installed: pyproject.toml
-	$(PYTHON) -m venv $(VENV)
-	{ $(PY) -m pip install --quiet "uv==$(UV_VERSION)" && \
-	  $(PY) -m uv pip install --quiet --python $(PY) -e ".[app,test,detect]"; } || { \
+	$(PYTHON) -m venv --without-pip $(VENV)
+	{ $(PYTHON) -m pip --python $(PY) install --quiet "uv==$(UV_VERSION)" && \
+	  $(VENV)/bin/uv pip install --quiet --python $(PY) pip -e ".[app,test,detect]"; } || { \
 	  echo "uv could not install the dependencies: installing them with pip"; \
-	  $(PY) -m pip install --quiet -e ".[app,test,detect]"; }
+	  $(PY) -m ensurepip --upgrade --default-pip >/dev/null && $(PY) -m pip install --quiet -e ".[app,test,detect]"; }
 	touch $@
 
 install: $(VENV)/.installed
